@@ -1,0 +1,70 @@
+//! Bounding volume hierarchy over the triangles of one mesh (paper 3.1-3.4).
+//!
+//! Built once, bottom-up, on the rest mesh ([`build`]); every frame only the
+//! boxes and normal cones are refitted ([`refit`]). All data lives in flat
+//! arrays indexed by node id: nodes `0..n` are the leaves (leaf `i` holds
+//! triangle `i`), internal nodes follow in creation order, so every child has a
+//! smaller id than its parent and the root is the last node.
+
+pub mod build;
+pub mod contour;
+pub mod refit;
+pub mod traverse;
+
+use crate::geom::{Aabb, NormalCone};
+use crate::mesh::Csr;
+
+/// A flat, bottom-up BVH with per-node boxes, normal cones and contours.
+#[derive(Debug, Clone)]
+pub struct Bvh {
+    /// Number of leaves (= triangles).
+    pub n_leaves: usize,
+    /// Children of internal node `n_leaves + i`.
+    pub children: Vec<[u32; 2]>,
+    /// Internal node id ranges, one per build level; nodes of a level only have
+    /// children from earlier levels, so a level can be refitted in parallel.
+    pub levels: Vec<std::ops::Range<u32>>,
+    /// Box of every node, refitted each frame.
+    pub boxes: Vec<Aabb>,
+    /// Normal cone of every node, refitted each frame.
+    pub cones: Vec<NormalCone>,
+    /// Contour and patch topology of every node, fixed at build time.
+    pub patches: contour::Patches,
+}
+
+impl Bvh {
+    /// Total number of nodes (2 n - 1).
+    pub fn n_nodes(&self) -> usize {
+        self.boxes.len()
+    }
+
+    /// The root node id.
+    pub fn root(&self) -> u32 {
+        (self.n_nodes() - 1) as u32
+    }
+
+    /// True for leaf nodes.
+    #[inline]
+    pub fn is_leaf(&self, node: u32) -> bool {
+        (node as usize) < self.n_leaves
+    }
+
+    /// Children of an internal node.
+    #[inline]
+    pub fn children_of(&self, node: u32) -> [u32; 2] {
+        self.children[node as usize - self.n_leaves]
+    }
+
+    /// Bytes held by the hierarchy's arrays (not counting the mesh).
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let csr = |c: &Csr| (c.offsets.capacity() + c.items.capacity()) * 4;
+        self.children.capacity() * size_of::<[u32; 2]>()
+            + self.boxes.capacity() * size_of::<Aabb>()
+            + self.cones.capacity() * size_of::<NormalCone>()
+            + csr(&self.patches.contour)
+            + csr(&self.patches.boundary)
+            + self.patches.euler.capacity() * 4
+            + self.patches.eligible.capacity()
+    }
+}

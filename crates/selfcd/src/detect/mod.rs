@@ -1,0 +1,129 @@
+//! Detectors: one trait, several methods, each reusable frame after frame.
+//!
+//! | method              | broad phase                         | conservative |
+//! |---------------------|-------------------------------------|--------------|
+//! | `brute`             | every pair (exact reference)        | yes          |
+//! | `bvh`               | BVH boxes                           | yes          |
+//! | `bvh-cones`         | BVH + normal cones (the paper)      | no: misses counted in tests |
+//! | `bvh-cones-contour` | BVH + cones + star contour test     | yes (default) |
+
+pub mod brute;
+pub mod hierarchy;
+pub mod narrow;
+
+use crate::error::{Error, Result};
+use crate::mesh::Mesh;
+use crate::stats::FrameStats;
+use glam::DVec3;
+pub use narrow::{EdgeEdge, ProximityContacts, VertexTriangle};
+use std::str::FromStr;
+use std::sync::Arc;
+
+/// The detection methods, by their command-line names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// All pairs, exact: the reference.
+    Brute,
+    /// BVH with boxes only.
+    Bvh,
+    /// BVH with normal-cone culling, no contour test (the paper's hierarchy).
+    BvhCones,
+    /// BVH with normal cones and the star contour test (conservative).
+    BvhConesContour,
+}
+
+impl Method {
+    /// Every method, in report order.
+    pub const ALL: [Method; 4] = [Method::Brute, Method::Bvh, Method::BvhCones, Method::BvhConesContour];
+
+    /// The method's name, as used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Brute => "brute",
+            Method::Bvh => "bvh",
+            Method::BvhCones => "bvh-cones",
+            Method::BvhConesContour => "bvh-cones-contour",
+        }
+    }
+
+    /// True when the method can miss contacts by design.
+    pub fn is_conservative(self) -> bool {
+        !matches!(self, Method::BvhCones)
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
+            Error::InvalidParameter(format!("unknown method {s:?}; expected one of {}", names.join(", ")))
+        })
+    }
+}
+
+/// Options shared by all detectors.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectorOptions {
+    /// Proximity thickness d (metres): when > 0, vertex-triangle and edge-edge
+    /// pairs closer than d are reported too.
+    pub thickness: f64,
+}
+
+impl Default for DetectorOptions {
+    fn default() -> Self {
+        DetectorOptions { thickness: 0.0 }
+    }
+}
+
+impl DetectorOptions {
+    /// Checks the options' ranges.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.thickness >= 0.0 && self.thickness.is_finite()) {
+            return Err(Error::InvalidParameter(format!("thickness must be finite and >= 0, got {}", self.thickness)));
+        }
+        Ok(())
+    }
+}
+
+/// What one detection call found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Detection {
+    /// Intersecting pairs of non-adjacent triangles (i < j), sorted.
+    pub pairs: Vec<[u32; 2]>,
+    /// Proximity contacts (empty unless thickness > 0).
+    pub proximity: ProximityContacts,
+    /// What the call cost.
+    pub stats: FrameStats,
+}
+
+/// A self-collision detector for one mesh, keeping its state between frames.
+pub trait Detector: Send {
+    /// The method this detector runs.
+    fn method(&self) -> Method;
+    /// The mesh it was built for.
+    fn mesh(&self) -> &Arc<Mesh>;
+    /// Finds self-intersections (and proximity contacts) at `positions`.
+    fn detect(&mut self, positions: &[DVec3]) -> Result<Detection>;
+}
+
+/// Builds a detector running `method` on `mesh`.
+pub fn new_detector(mesh: Arc<Mesh>, method: Method, opts: &DetectorOptions) -> Result<Box<dyn Detector>> {
+    opts.validate()?;
+    Ok(match method {
+        Method::Brute => Box::new(brute::BruteDetector::new(mesh, opts.thickness)),
+        _ => Box::new(hierarchy::BvhDetector::new(mesh, method, opts.thickness)),
+    })
+}
+
+/// One-shot exact query: all intersecting non-adjacent triangle pairs of a mesh.
+pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[u32; 2]>> {
+    let mut d = hierarchy::BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
+    Ok(d.detect(positions)?.pairs)
+}

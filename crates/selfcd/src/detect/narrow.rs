@@ -1,0 +1,151 @@
+//! Narrow phase: what is tested on each candidate triangle pair.
+//!
+//! - [`Intersect`]: exact closed triangle-triangle test, non-adjacent pairs only.
+//! - [`Proximity`]: vertex-triangle and edge-edge pairs closer than a thickness
+//!   `d`, skipping elements that share a vertex.
+
+use crate::bvh::traverse::LeafVisitor;
+use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
+use crate::geom::tri_tri::triangles_intersect;
+use crate::mesh::Mesh;
+use glam::DVec3;
+
+/// Exact intersection test of two triangles of one mesh.
+pub struct Intersect<'a> {
+    /// The mesh (triangles).
+    pub mesh: &'a Mesh,
+    /// Current vertex positions.
+    pub positions: &'a [DVec3],
+}
+
+impl LeafVisitor for Intersect<'_> {
+    type Item = [u32; 2];
+    const SKIP_ADJACENT: bool = true;
+
+    #[inline]
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<[u32; 2]>) {
+        let ta = self.mesh.corners(self.positions, a as usize);
+        let tb = self.mesh.corners(self.positions, b as usize);
+        if triangles_intersect(&ta, &tb) {
+            out.push([a, b]);
+        }
+    }
+}
+
+/// A vertex closer than the thickness to a triangle it is not part of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexTriangle {
+    /// The vertex.
+    pub vertex: u32,
+    /// The triangle.
+    pub triangle: u32,
+    /// Distance from the vertex to the triangle.
+    pub distance: f64,
+    /// Barycentric weights of the closest point on the triangle.
+    pub bary: [f64; 3],
+}
+
+/// Two edges (sharing no vertex) closer than the thickness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeEdge {
+    /// Edge ids into the mesh topology, smaller first.
+    pub edges: [u32; 2],
+    /// Distance between the edges.
+    pub distance: f64,
+    /// Parameters of the closest points along each edge (from its smaller vertex).
+    pub params: [f64; 2],
+}
+
+/// Proximity contacts of one frame.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ProximityContacts {
+    /// Vertex-triangle pairs, sorted by (vertex, triangle).
+    pub vertex_triangle: Vec<VertexTriangle>,
+    /// Edge-edge pairs, sorted by edge ids.
+    pub edge_edge: Vec<EdgeEdge>,
+}
+
+/// One proximity contact found on a triangle pair (deduplicated afterwards).
+#[derive(Debug, Clone, Copy)]
+pub enum Near {
+    /// Vertex near a triangle.
+    Vt(VertexTriangle),
+    /// Edge near an edge.
+    Ee(EdgeEdge),
+}
+
+/// Proximity test with thickness `d` between two triangles of one mesh.
+pub struct Proximity<'a> {
+    /// The mesh (triangles, edges).
+    pub mesh: &'a Mesh,
+    /// Current vertex positions.
+    pub positions: &'a [DVec3],
+    /// Thickness: report element pairs strictly closer than this.
+    pub thickness: f64,
+}
+
+impl Proximity<'_> {
+    fn vertex_triangle(&self, v: u32, t: u32, out: &mut Vec<Near>) {
+        let tri = self.mesh.triangles()[t as usize];
+        if tri.contains(&v) {
+            return;
+        }
+        let [a, b, c] = self.mesh.corners(self.positions, t as usize);
+        let (d2, bary) = point_triangle_distance2(self.positions[v as usize], a, b, c);
+        if d2 < self.thickness * self.thickness {
+            out.push(Near::Vt(VertexTriangle { vertex: v, triangle: t, distance: d2.sqrt(), bary }));
+        }
+    }
+
+    fn edge_edge(&self, e0: u32, e1: u32, out: &mut Vec<Near>) {
+        let edges = &self.mesh.topology().edges;
+        let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
+        if a == c || a == d || b == c || b == d {
+            return;
+        }
+        let p = |i: u32| self.positions[i as usize];
+        let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
+        if d2 < self.thickness * self.thickness {
+            let (edges, params) = if e0 < e1 { ([e0, e1], [s, t]) } else { ([e1, e0], [t, s]) };
+            out.push(Near::Ee(EdgeEdge { edges, distance: d2.sqrt(), params }));
+        }
+    }
+}
+
+impl LeafVisitor for Proximity<'_> {
+    type Item = Near;
+    const SKIP_ADJACENT: bool = false;
+
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
+        let tris = self.mesh.triangles();
+        for &v in &tris[a as usize] {
+            self.vertex_triangle(v, b, out);
+        }
+        for &v in &tris[b as usize] {
+            self.vertex_triangle(v, a, out);
+        }
+        let te = &self.mesh.topology().tri_edges;
+        for &ea in &te[a as usize] {
+            for &eb in &te[b as usize] {
+                self.edge_edge(ea, eb, out);
+            }
+        }
+    }
+}
+
+/// Sorts and deduplicates raw proximity contacts (an element pair is seen from
+/// several triangle pairs).
+pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
+    let mut out = ProximityContacts::default();
+    for it in items {
+        match it {
+            Near::Vt(x) => out.vertex_triangle.push(x),
+            Near::Ee(x) => out.edge_edge.push(x),
+        }
+    }
+    out.vertex_triangle.sort_unstable_by_key(|x| (x.vertex, x.triangle));
+    out.vertex_triangle.dedup_by_key(|x| (x.vertex, x.triangle));
+    out.edge_edge.sort_unstable_by_key(|x| x.edges);
+    out.edge_edge.dedup_by_key(|x| x.edges);
+    out
+}

@@ -1,0 +1,38 @@
+//! Typed errors: every bad input is named, nothing panics.
+
+use thiserror::Error;
+
+/// Everything that can go wrong when building or querying the engine.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum Error {
+    /// The mesh has no vertices or no triangles.
+    #[error("empty mesh: {0}")]
+    EmptyMesh(&'static str),
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices")]
+    IndexOutOfRange { triangle: usize, index: u64, vertex_count: usize },
+    /// A coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    NonFinite { vertex: usize, value: f64 },
+    /// A triangle uses the same vertex twice.
+    #[error("triangle {triangle} repeats a vertex: {indices:?}")]
+    RepeatedVertex { triangle: usize, indices: [u32; 3] },
+    /// Two triangles have the same three vertices.
+    #[error("triangles {first} and {second} have the same vertices")]
+    DuplicateTriangle { first: usize, second: usize },
+    /// A triangle has zero area in the rest shape (its corners are collinear).
+    #[error("triangle {triangle} is degenerate in the rest shape (its corners are collinear)")]
+    DegenerateTriangle { triangle: usize },
+    /// A positions array does not match the mesh.
+    #[error("positions have {got} vertices, the mesh has {expected}")]
+    PositionsLength { expected: usize, got: usize },
+    /// A parameter is outside its valid range.
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+    /// The mesh's rest shape is not flat, and the method needs a flat one.
+    #[error("rest shape is not flat (max distance {deviation:.3e} from its best plane, relative); {what} needs a flat rest shape")]
+    CurvedRestShape { deviation: f64, what: &'static str },
+}
+
+/// Result with the engine's error type.
+pub type Result<T> = std::result::Result<T, Error>;

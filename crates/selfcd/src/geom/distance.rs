@@ -1,0 +1,132 @@
+//! Closest points and distances: point-triangle and segment-segment (edge-edge).
+//!
+//! Plain f64 (these feed the simulator's proximity response, where a tolerance
+//! `d` is already in play); after Ericson, Real-Time Collision Detection, 5.1.
+
+use glam::DVec3;
+
+/// Closest point of triangle (a, b, c) to `p`, as barycentric weights (wa, wb, wc).
+/// Works for degenerate triangles too (then it returns a closest point on an edge).
+pub fn point_triangle_closest(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let denom = va + vb + vc;
+    if !(denom.abs() > 0.0) {
+        // Degenerate triangle: closest point on its longest edge is found above or here.
+        return closest_on_edges(p, a, b, c);
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    [1.0 - v - w, v, w]
+}
+
+fn closest_on_edges(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let on = |x: DVec3, y: DVec3| {
+        let d = y - x;
+        let l = d.length_squared();
+        if l > 0.0 { ((p - x).dot(d) / l).clamp(0.0, 1.0) } else { 0.0 }
+    };
+    let (s, t, u) = (on(a, b), on(b, c), on(c, a));
+    let cands = [[1.0 - s, s, 0.0], [0.0, 1.0 - t, t], [u, 0.0, 1.0 - u]];
+    let dist = |w: &[f64; 3]| (a * w[0] + b * w[1] + c * w[2] - p).length_squared();
+    cands.into_iter().min_by(|x, y| dist(x).total_cmp(&dist(y))).unwrap()
+}
+
+/// Squared distance from `p` to triangle (a, b, c), with the barycentric weights of the closest point.
+pub fn point_triangle_distance2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (f64, [f64; 3]) {
+    let w = point_triangle_closest(p, a, b, c);
+    ((a * w[0] + b * w[1] + c * w[2] - p).length_squared(), w)
+}
+
+/// Closest points of segments p1-q1 and p2-q2 as parameters (s, t) in [0,1]^2,
+/// with the squared distance. Parallel and zero-length segments are handled.
+pub fn segment_segment_distance2(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> (f64, f64, f64) {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let (s, t);
+    if a <= 0.0 && e <= 0.0 {
+        return (r.length_squared(), 0.0, 0.0);
+    }
+    if a <= 0.0 {
+        s = 0.0;
+        t = (f / e).clamp(0.0, 1.0);
+    } else {
+        let c = d1.dot(r);
+        if e <= 0.0 {
+            t = 0.0;
+            s = (-c / a).clamp(0.0, 1.0);
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let s0 = if denom > 0.0 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t0 > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            } else {
+                t = t0;
+                s = s0;
+            }
+        }
+    }
+    let d = (p1 + d1 * s) - (p2 + d2 * t);
+    (d.length_squared(), s, t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_triangle_regions() {
+        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
+        let (d2, w) = point_triangle_distance2(DVec3::new(0.25, 0.25, 2.0), a, b, c);
+        assert!((d2 - 4.0).abs() < 1e-12 && (w[1] - 0.25).abs() < 1e-12);
+        let (d2, w) = point_triangle_distance2(DVec3::new(2.0, -1.0, 0.0), a, b, c);
+        assert!((d2 - 2.0).abs() < 1e-12 && w == [0.0, 1.0, 0.0]);
+        let (d2, _) = point_triangle_distance2(DVec3::new(1.0, 1.0, 0.0), a, b, c);
+        assert!((d2 - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn segment_segment_cases() {
+        let (d2, s, t) = segment_segment_distance2(DVec3::ZERO, DVec3::X, DVec3::new(0.5, -1.0, 1.0), DVec3::new(0.5, 1.0, 1.0));
+        assert!((d2 - 1.0).abs() < 1e-12 && (s - 0.5).abs() < 1e-12 && (t - 0.5).abs() < 1e-12);
+        // Parallel, overlapping.
+        let (d2, _, _) = segment_segment_distance2(DVec3::ZERO, DVec3::X, DVec3::new(0.5, 0.0, 2.0), DVec3::new(1.5, 0.0, 2.0));
+        assert!((d2 - 4.0).abs() < 1e-12);
+        // Degenerate.
+        let (d2, _, _) = segment_segment_distance2(DVec3::ZERO, DVec3::ZERO, DVec3::Y, DVec3::Y);
+        assert_eq!(d2, 1.0);
+    }
+}

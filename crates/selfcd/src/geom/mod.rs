@@ -1,0 +1,10 @@
+//! Geometry: boxes, normal cones, exact predicates and the primitive tests.
+
+pub mod aabb;
+pub mod cone;
+pub mod distance;
+pub mod predicates;
+pub mod tri_tri;
+
+pub use aabb::Aabb;
+pub use cone::NormalCone;

@@ -1,0 +1,90 @@
+//! Per-frame counters: what each detector spent and found.
+
+/// What one detection call cost and found. Times are wall-clock seconds.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameStats {
+    /// Time to refit boxes and cones (s).
+    pub refit_time: f64,
+    /// Time spent in the self-traversal and narrow phase (s).
+    pub traverse_time: f64,
+    /// Time spent relaxing the particle sensor (s); zero for other methods.
+    pub sensor_time: f64,
+    /// Node pairs whose boxes were compared.
+    pub node_pairs: u64,
+    /// Nodes whose self-test was skipped by the cone (and contour) test.
+    pub self_culls: u64,
+    /// Adjacent node pairs skipped by the merged cone (and contour) test.
+    pub pair_culls: u64,
+    /// Contour tests run (self and pair).
+    pub contour_tests: u64,
+    /// Contour tests that failed, so the node or pair was descended into.
+    pub contour_fails: u64,
+    /// Leaf pairs skipped because the triangles share a vertex.
+    pub adjacent_skips: u64,
+    /// Exact triangle-triangle tests run: the paper's polygon-polygon checks.
+    pub primitive_tests: u64,
+    /// Intersecting triangle pairs found.
+    pub contacts: u64,
+    /// Proximity contacts (vertex-triangle + edge-edge) found, when thickness > 0.
+    pub proximity_contacts: u64,
+    /// Sensor-gated only: did the sensor trigger the traversal this frame.
+    pub triggered: Option<bool>,
+    /// Sensor-gated only: particle updates made while relaxing.
+    pub relax_steps: u32,
+    /// Sensor-gated only: particles that moved more than epsilon in the last update.
+    pub moving_particles: u32,
+    /// Sensor-gated only: straight-line distance of the closest particle pair (mean-edge units).
+    pub closest_sl: f64,
+    /// Sensor-gated only: original (surface) distance of that pair (mean-edge units).
+    pub closest_odl: f64,
+}
+
+impl FrameStats {
+    /// Total detection time of the frame (s).
+    pub fn total_time(&self) -> f64 {
+        self.refit_time + self.traverse_time + self.sensor_time
+    }
+}
+
+/// Traversal counters, summed over parallel tasks (sums do not depend on scheduling).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// See [`FrameStats::node_pairs`].
+    pub node_pairs: u64,
+    /// See [`FrameStats::self_culls`].
+    pub self_culls: u64,
+    /// See [`FrameStats::pair_culls`].
+    pub pair_culls: u64,
+    /// See [`FrameStats::contour_tests`].
+    pub contour_tests: u64,
+    /// See [`FrameStats::contour_fails`].
+    pub contour_fails: u64,
+    /// See [`FrameStats::adjacent_skips`].
+    pub adjacent_skips: u64,
+    /// See [`FrameStats::primitive_tests`].
+    pub primitive_tests: u64,
+}
+
+impl Counters {
+    /// Adds another task's counters.
+    pub fn add(&mut self, o: &Counters) {
+        self.node_pairs += o.node_pairs;
+        self.self_culls += o.self_culls;
+        self.pair_culls += o.pair_culls;
+        self.contour_tests += o.contour_tests;
+        self.contour_fails += o.contour_fails;
+        self.adjacent_skips += o.adjacent_skips;
+        self.primitive_tests += o.primitive_tests;
+    }
+
+    /// Copies the counters into a frame's stats.
+    pub fn write_to(&self, s: &mut FrameStats) {
+        s.node_pairs = self.node_pairs;
+        s.self_culls = self.self_culls;
+        s.pair_culls = self.pair_culls;
+        s.contour_tests = self.contour_tests;
+        s.contour_fails = self.contour_fails;
+        s.adjacent_skips = self.adjacent_skips;
+        s.primitive_tests = self.primitive_tests;
+    }
+}
