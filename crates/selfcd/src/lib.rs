@@ -6,11 +6,13 @@
 //! simulator. Start with [`Mesh::new`] and [`detect::new_detector`].
 
 pub mod bvh;
+pub mod cloth;
 pub mod detect;
 pub mod error;
 pub mod geom;
 pub mod mesh;
 pub mod scene;
+pub mod sensor;
 pub mod stats;
 
 pub use detect::{new_detector, self_intersections, Detection, Detector, DetectorOptions, Method};
