@@ -8,6 +8,7 @@
 //! | `bvh-cones-contour` | BVH + cones + star contour test     | yes (default) |
 
 pub mod brute;
+pub mod compare;
 pub mod hierarchy;
 pub mod narrow;
 
