@@ -98,6 +98,8 @@ impl Proximity<'_> {
     }
 
     fn edge_edge(&self, e0: u32, e1: u32, out: &mut Vec<Near>) {
+        // Fixed argument order, so the same pair always gives the same numbers.
+        let (e0, e1) = (e0.min(e1), e0.max(e1));
         let edges = &self.mesh.topology().edges;
         let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
         if a == c || a == d || b == c || b == d {
@@ -106,8 +108,7 @@ impl Proximity<'_> {
         let p = |i: u32| self.positions[i as usize];
         let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
         if d2 < self.thickness * self.thickness {
-            let (edges, params) = if e0 < e1 { ([e0, e1], [s, t]) } else { ([e1, e0], [t, s]) };
-            out.push(Near::Ee(EdgeEdge { edges, distance: d2.sqrt(), params }));
+            out.push(Near::Ee(EdgeEdge { edges: [e0, e1], distance: d2.sqrt(), params: [s, t] }));
         }
     }
 }

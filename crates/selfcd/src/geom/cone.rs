@@ -3,25 +3,88 @@
 //! A cone (axis a, half-angle h) bounds a set of unit normals n when
 //! angle(n, a) <= h for each. If h < 90 degrees, a itself is a positive vector:
 //! a . n > 0 for every normal under the cone.
+//!
+//! Angles are carried as (cos, sin) pairs and combined with the addition and
+//! half-angle formulas, so refitting a node (a merge) needs no trigonometric
+//! call: it is a handful of multiplications and two square roots.
 
 use glam::DVec3;
-use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Safety margin (radians) kept below 90 degrees before a cone counts as positive.
+/// Margin kept below 90 degrees before a cone counts as positive: cos h must exceed this.
 const POSITIVE_MARGIN: f64 = 1e-9;
 
-/// A cone of directions: unit `axis` and `half_angle` in [0, PI]; PI means every direction.
+/// Rounding slack added to every merged half-angle (radians).
+const MERGE_SLACK: f64 = 16.0 * f64::EPSILON;
+
+/// An angle in [0, 2 PI) held as its cosine and sine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Angle {
+    c: f64,
+    s: f64,
+}
+
+impl Angle {
+    const ZERO: Angle = Angle { c: 1.0, s: 0.0 };
+
+    #[inline]
+    fn add(self, o: Angle) -> Angle {
+        Angle { c: self.c * o.c - self.s * o.s, s: self.s * o.c + self.c * o.s }
+    }
+
+    #[inline]
+    fn sub(self, o: Angle) -> Angle {
+        Angle { c: self.c * o.c + self.s * o.s, s: self.s * o.c - self.c * o.s }
+    }
+
+    /// Half of an angle in [0, PI]; accurate near 0 and near PI.
+    #[inline]
+    fn half(self) -> Angle {
+        if self.c >= 0.0 {
+            let c = (0.5 * (1.0 + self.c)).sqrt();
+            Angle { c, s: self.s / (2.0 * c) }
+        } else {
+            let s = (0.5 * (1.0 - self.c)).sqrt();
+            Angle { c: self.s / (2.0 * s), s }
+        }
+    }
+
+    /// True for angles in [PI, 2 PI), given the angle is below 2 PI.
+    #[inline]
+    fn at_least_pi(self) -> bool {
+        self.s < 0.0 || (self.s == 0.0 && self.c < 0.0)
+    }
+
+    /// x <= y for angles in [0, PI].
+    #[inline]
+    fn le(self, y: Angle) -> bool {
+        self.c >= y.c
+    }
+
+    /// Widened by a tiny angle `e` (first order, conservative for e << 1).
+    #[inline]
+    fn widen(self, e: f64) -> Angle {
+        Angle { c: self.c - self.s.abs() * e - e * e, s: self.s + self.c * e }
+    }
+
+    /// Angle between unit vectors a and b, in [0, PI].
+    #[inline]
+    fn between(a: DVec3, b: DVec3) -> Angle {
+        Angle { c: a.dot(b), s: a.cross(b).length() }
+    }
+}
+
+/// A cone of directions: unit `axis` and a half-angle in [0, PI] held as its
+/// cosine and sine; the full cone (every direction) has cosine -1.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NormalCone {
     /// Unit axis.
     pub axis: DVec3,
-    /// Half-angle in radians; `PI` is the full sphere.
-    pub half_angle: f64,
+    half: Angle,
 }
 
 impl NormalCone {
     /// The cone holding every direction.
-    pub const FULL: NormalCone = NormalCone { axis: DVec3::Z, half_angle: PI };
+    pub const FULL: NormalCone = NormalCone { axis: DVec3::Z, half: Angle { c: -1.0, s: 0.0 } };
 
     /// The cone of triangle (a, b, c)'s normal, widened by the rounding error of
     /// the cross product so that it holds the exact normal. A degenerate
@@ -32,76 +95,111 @@ impl NormalCone {
         let n = e1.cross(e2);
         let len = n.length();
         let scale = e1.length() * e2.length();
-        if !(len > 0.0) || len <= 64.0 * f64::EPSILON * scale {
+        if !(len > 64.0 * f64::EPSILON * scale) {
             return NormalCone::FULL;
         }
-        // |computed - exact| <= ~4 eps |e1||e2| per component; turn it into an angle.
-        let err = (8.0 * f64::EPSILON * scale / len).min(1.0).asin();
-        NormalCone { axis: n / len, half_angle: err }
+        // |computed - exact| <= ~4 eps |e1||e2| per component: an angle of at
+        // most asin(x) <= 1.06 x for x = 8 eps |e1||e2| / |n| <= 1/8.
+        let err = 1.06 * 8.0 * f64::EPSILON * scale / len;
+        NormalCone { axis: n / len, half: Angle::ZERO.widen(err) }
+    }
+
+    /// A cone from an axis (normalised here) and a half-angle in radians.
+    pub fn new(axis: DVec3, half_angle: f64) -> NormalCone {
+        if half_angle >= std::f64::consts::PI || axis.length_squared() == 0.0 {
+            return NormalCone::FULL;
+        }
+        NormalCone { axis: axis.normalize(), half: Angle { c: half_angle.cos(), s: half_angle.sin() } }
+    }
+
+    /// Half-angle in radians (for reports; the engine works with its cosine).
+    pub fn half_angle(&self) -> f64 {
+        self.half.s.atan2(self.half.c)
     }
 
     /// True when a positive vector exists: every normal under the cone has a
-    /// positive dot product with the axis.
+    /// positive dot product with the axis (half-angle below 90 degrees, with margin).
     #[inline]
     pub fn is_positive(&self) -> bool {
-        self.half_angle < FRAC_PI_2 - POSITIVE_MARGIN
+        self.half.c > POSITIVE_MARGIN
     }
 
-    /// Smallest cone (around the great-circle arc between the axes) holding both.
+    /// Smallest cone around the great-circle arc between the axes holding both:
+    /// half-angle H = (h1 + d + h2) / 2, axis turned from the first axis towards
+    /// the second by H - h1, where d is the angle between the axes.
+    #[inline]
     pub fn merge(&self, o: &NormalCone) -> NormalCone {
-        if self.half_angle >= PI || o.half_angle >= PI {
+        if self.half.c <= -1.0 || o.half.c <= -1.0 {
             return NormalCone::FULL;
         }
-        let cross = self.axis.cross(o.axis);
-        let s = cross.length();
-        let d = s.atan2(self.axis.dot(o.axis)); // angle between axes, accurate at 0 and PI
-        if d + o.half_angle <= self.half_angle {
+        let d = Angle::between(self.axis, o.axis);
+        let (dh1, dh2) = (d.add(self.half), d.add(o.half));
+        if !dh2.at_least_pi() && dh2.le(self.half) {
             return *self;
         }
-        if d + self.half_angle <= o.half_angle {
+        if !dh1.at_least_pi() && dh1.le(o.half) {
             return *o;
         }
-        let half = 0.5 * (self.half_angle + d + o.half_angle);
-        if half >= PI || s == 0.0 {
+        let h = self.half.half().add(d.half()).add(o.half.half()).widen(MERGE_SLACK);
+        if h.at_least_pi() || d.s == 0.0 {
             return NormalCone::FULL;
         }
-        // Rotate self.axis towards o.axis by (half - self.half_angle) about k = unit(a x b).
-        let t = half - self.half_angle;
-        let k = cross / s;
-        let axis = (self.axis * t.cos() + k.cross(self.axis) * t.sin()).normalize();
-        NormalCone { axis, half_angle: half + 4.0 * f64::EPSILON }
+        let t = h.sub(self.half);
+        // k x a = (b - a cos d) / sin d for k = unit(a x b).
+        let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
+        NormalCone { axis: axis.normalize(), half: h }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::SplitMix;
+    use std::f64::consts::{FRAC_PI_4, PI};
+
+    fn holds(outer: &NormalCone, inner: &NormalCone) -> bool {
+        *outer == NormalCone::FULL
+            || outer.axis.dot(inner.axis).clamp(-1.0, 1.0).acos() + inner.half_angle() <= outer.half_angle() + 1e-12
+    }
 
     #[test]
     fn merge_holds_both_cones() {
         let a = NormalCone::of_triangle(DVec3::ZERO, DVec3::X, DVec3::Y); // +z
-        assert!(a.half_angle < 1e-12 && (a.axis - DVec3::Z).length() < 1e-15);
-        let tilted = DVec3::new(1.0, 0.0, 1.0).normalize();
-        let b = NormalCone { axis: tilted, half_angle: 0.1 };
+        assert!(a.half_angle() < 1e-12 && (a.axis - DVec3::Z).length() < 1e-15);
+        let b = NormalCone::new(DVec3::new(1.0, 0.0, 1.0), 0.1);
         let m = a.merge(&b);
-        for c in [a, b] {
-            assert!(m.axis.dot(c.axis).clamp(-1.0, 1.0).acos() + c.half_angle <= m.half_angle + 1e-12);
-        }
-        assert!((m.half_angle - (FRAC_PI_4 + 0.1) / 2.0).abs() < 1e-12);
+        assert!(holds(&m, &a) && holds(&m, &b));
+        assert!((m.half_angle() - (FRAC_PI_4 + 0.1) / 2.0).abs() < 1e-12);
         assert!(m.is_positive());
-        let down = NormalCone { axis: -DVec3::Z, half_angle: 0.0 };
-        assert!(!a.merge(&down).is_positive());
+        assert!(!a.merge(&NormalCone::new(-DVec3::Z, 0.0)).is_positive());
         // Normals 90 degrees apart still have a positive vector (their bisector).
-        let side = NormalCone { axis: DVec3::X, half_angle: 0.0 };
-        assert!((a.merge(&side).half_angle - FRAC_PI_4).abs() < 1e-12);
+        assert!((a.merge(&NormalCone::new(DVec3::X, 0.0)).half_angle() - FRAC_PI_4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn merge_matches_the_trigonometric_formula() {
+        let mut rng = SplitMix::new(3);
+        for _ in 0..2000 {
+            let a = NormalCone::new(rng.direction(), PI * rng.unit() * rng.unit());
+            let b = NormalCone::new(rng.direction(), PI * rng.unit() * rng.unit());
+            let m = a.merge(&b);
+            assert!(holds(&m, &a) && holds(&m, &b), "{a:?} {b:?} -> {m:?}");
+            let d = a.axis.dot(b.axis).clamp(-1.0, 1.0).acos();
+            let want = (a.half_angle() + d + b.half_angle()) / 2.0;
+            let want = want.max(a.half_angle()).max(b.half_angle());
+            if want < PI - 1e-6 && m.half.c > -1.0 {
+                let contained = d + b.half_angle() <= a.half_angle() || d + a.half_angle() <= b.half_angle();
+                if !contained {
+                    assert!((m.half_angle() - want).abs() < 1e-9, "{} vs {want}", m.half_angle());
+                }
+            }
+        }
     }
 
     #[test]
     fn degenerate_triangle_has_full_cone() {
         let c = NormalCone::of_triangle(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X);
-        assert_eq!(c.half_angle, PI);
+        assert_eq!(c, NormalCone::FULL);
         assert!(!c.is_positive());
     }
-
-    use std::f64::consts::FRAC_PI_4;
 }
