@@ -6,14 +6,17 @@
 //! | `bvh`               | BVH boxes                           | yes          |
 //! | `bvh-cones`         | BVH + normal cones (the paper)      | no: misses counted in tests |
 //! | `bvh-cones-contour` | BVH + cones + star contour test     | yes (default) |
+//! | `sensor-gated`      | particle sensor, then a BVH method  | no: misses counted by `compare` |
 
 pub mod brute;
 pub mod compare;
 pub mod hierarchy;
 pub mod narrow;
+pub mod sensor_gated;
 
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
+use crate::sensor::SensorParams;
 use crate::stats::FrameStats;
 use glam::DVec3;
 pub use narrow::{EdgeEdge, ProximityContacts, VertexTriangle};
@@ -31,11 +34,14 @@ pub enum Method {
     BvhCones,
     /// BVH with normal cones and the star contour test (conservative).
     BvhConesContour,
+    /// The particle sensor gating a BVH method (the paper's full method).
+    SensorGated,
 }
 
 impl Method {
     /// Every method, in report order.
-    pub const ALL: [Method; 4] = [Method::Brute, Method::Bvh, Method::BvhCones, Method::BvhConesContour];
+    pub const ALL: [Method; 5] =
+        [Method::Brute, Method::Bvh, Method::BvhCones, Method::BvhConesContour, Method::SensorGated];
 
     /// The method's name, as used on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -44,12 +50,13 @@ impl Method {
             Method::Bvh => "bvh",
             Method::BvhCones => "bvh-cones",
             Method::BvhConesContour => "bvh-cones-contour",
+            Method::SensorGated => "sensor-gated",
         }
     }
 
     /// True when the method can miss contacts by design.
     pub fn is_conservative(self) -> bool {
-        !matches!(self, Method::BvhCones)
+        !matches!(self, Method::BvhCones | Method::SensorGated)
     }
 }
 
@@ -75,11 +82,13 @@ pub struct DetectorOptions {
     /// Proximity thickness d (metres): when > 0, vertex-triangle and edge-edge
     /// pairs closer than d are reported too.
     pub thickness: f64,
+    /// Particle sensor parameters (used by `sensor-gated`).
+    pub sensor: SensorParams,
 }
 
 impl Default for DetectorOptions {
     fn default() -> Self {
-        DetectorOptions { thickness: 0.0 }
+        DetectorOptions { thickness: 0.0, sensor: SensorParams::default() }
     }
 }
 
@@ -89,7 +98,7 @@ impl DetectorOptions {
         if !(self.thickness >= 0.0 && self.thickness.is_finite()) {
             return Err(Error::InvalidParameter(format!("thickness must be finite and >= 0, got {}", self.thickness)));
         }
-        Ok(())
+        self.sensor.validate()
     }
 }
 
@@ -112,6 +121,10 @@ pub trait Detector: Send {
     fn mesh(&self) -> &Arc<Mesh>;
     /// Finds self-intersections (and proximity contacts) at `positions`.
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection>;
+    /// Current particle positions, for drawing (empty for methods without a sensor).
+    fn particles(&self) -> Vec<DVec3> {
+        Vec::new()
+    }
 }
 
 /// Builds a detector running `method` on `mesh`.
@@ -119,6 +132,7 @@ pub fn new_detector(mesh: Arc<Mesh>, method: Method, opts: &DetectorOptions) -> 
     opts.validate()?;
     Ok(match method {
         Method::Brute => Box::new(brute::BruteDetector::new(mesh, opts.thickness)),
+        Method::SensorGated => Box::new(sensor_gated::SensorGatedDetector::new(mesh, opts.thickness, &opts.sensor)?),
         _ => Box::new(hierarchy::BvhDetector::new(mesh, method, opts.thickness)),
     })
 }

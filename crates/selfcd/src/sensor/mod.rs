@@ -1,2 +1,27 @@
 //! The particle sensor of the paper (section 2): a few particles moving on the
 //! surface that sense folds and gate the BVH traversal.
+//!
+//! - [`particle`]: a particle is a surface point (triangle + barycentric).
+//! - [`tangent`]: tangent vectors of a triangle, in rest and current shape.
+//! - [`walk`]: moving a particle along the surface, across triangles.
+//! - [`odl`]: original distance and path direction; flat rest shapes only.
+//! - [`forces`]: the paper's attraction and repulsion.
+//! - [`place`]: deterministic initial placement.
+//! - [`relax`]: per-frame relaxation (N_min, N_max) and the trigger.
+//! - [`params`]: every constant, with its default.
+//!
+//! All lengths the sensor reasons in are in units of the mesh's mean rest edge
+//! length, so its behaviour does not depend on the mesh's scale.
+
+pub mod forces;
+pub mod odl;
+pub mod params;
+pub mod particle;
+pub mod place;
+pub mod relax;
+pub mod tangent;
+pub mod walk;
+
+pub use params::SensorParams;
+pub use particle::SurfacePoint;
+pub use relax::{ClosestPair, Relaxation, Sensor};

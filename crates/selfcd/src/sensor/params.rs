@@ -1,0 +1,92 @@
+//! `SensorParams`: every constant of the particle sensor, with its default.
+//!
+//! Lengths (step sizes, epsilon, tolerance) are in units of the mesh's mean
+//! rest edge length L ([`crate::Mesh::mean_edge_length`]), and the force
+//! constants a and b act on lengths in those units, so the sensor behaves the
+//! same on a mesh scaled by any factor.
+//!
+//! How the defaults were chosen: `a = 20`, `b = 10` and `count = 4` are the
+//! paper's. The others come from the sweep in
+//! `cargo run --release -p selfcd --example sensor_sweep`, which runs the gate
+//! over the analytic fold, roll, twist and wave animations at 200 and 20k
+//! triangles and counts frames triggered, frames where the gate fired late and
+//! contacts missed (against the exact reference). The defaults are the
+//! cheapest setting (fewest updates, fewest triggered quiet frames) that
+//! missed no contact-frame's onset on those animations; BENCHMARKS.md
+//! ("Particle sensor (issue 3)") has the numbers.
+
+use crate::detect::Method;
+use crate::error::{Error, Result};
+
+/// Parameters of the particle sensor and the sensor-gated detector.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorParams {
+    /// Number of particles k (the paper: "the number of convex parts"; 4 for its square cloth).
+    pub count: usize,
+    /// Attraction constant a in fa(r) = a / r^2 (paper: 20).
+    pub a: f64,
+    /// Repulsion constant b in fr(r) = -b / r^2 (paper: 10).
+    pub b: f64,
+    /// N_min: relaxation stops once fewer than this many particles moved more than `epsilon`.
+    pub n_min: u32,
+    /// N_max: the most particle updates per frame.
+    pub n_max: u32,
+    /// A particle "moved" in an update when it went further than this (mean-edge units).
+    pub epsilon: f64,
+    /// Step per unit force: an update moves a particle by `step_gain * F_tangent` (mean-edge units).
+    pub step_gain: f64,
+    /// The longest step of one update (mean-edge units): the clamp on `step_gain * |F|`.
+    pub max_step: f64,
+    /// Trigger: the traversal runs when the closest pair's straight-line distance is below this (mean-edge units).
+    pub tolerance: f64,
+    /// The BVH method run on triggered frames: `bvh-cones-contour` (default) or `bvh-cones` (the paper's).
+    pub inner: Method,
+    /// Refit the BVH on every frame (true, the design's data flow) or only on triggered frames.
+    /// Refit recomputes everything from the positions, so the contacts are the same either way.
+    pub refit_every_frame: bool,
+}
+
+impl Default for SensorParams {
+    fn default() -> Self {
+        SensorParams {
+            count: 4,
+            a: 20.0,
+            b: 10.0,
+            n_min: 1,
+            n_max: 8,
+            epsilon: 1e-3,
+            step_gain: 1.0,
+            max_step: 0.5,
+            tolerance: 2.0,
+            inner: Method::BvhConesContour,
+            refit_every_frame: true,
+        }
+    }
+}
+
+impl SensorParams {
+    /// Checks every field's range; the error names the field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: String| Err(Error::InvalidParameter(what));
+        if self.count < 2 {
+            return bad(format!("sensor count must be at least 2 (a pair), got {}", self.count));
+        }
+        for (name, v) in [("a", self.a), ("b", self.b), ("step_gain", self.step_gain)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("sensor {name} must be finite and >= 0, got {v}"));
+            }
+        }
+        for (name, v) in [("epsilon", self.epsilon), ("max_step", self.max_step), ("tolerance", self.tolerance)] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("sensor {name} must be finite and > 0, got {v}"));
+            }
+        }
+        if self.n_max == 0 {
+            return bad("sensor n_max must be at least 1".into());
+        }
+        if !matches!(self.inner, Method::BvhCones | Method::BvhConesContour | Method::Bvh) {
+            return bad(format!("sensor inner method must be bvh, bvh-cones or bvh-cones-contour, got {}", self.inner));
+        }
+        Ok(())
+    }
+}
