@@ -1,0 +1,52 @@
+//! `selfcd._core`: the Python extension module over the selfcd engine.
+//!
+//! Thin by design: arrays cross the boundary whole (numpy in, numpy out),
+//! every long call releases the GIL, engine errors become `ValueError` with the
+//! engine's message, and a panic (which the engine should never raise) becomes
+//! a `RuntimeError` instead of unwinding into the interpreter.
+
+mod compare;
+mod convert;
+mod detector;
+mod errors;
+mod mesh;
+mod scene;
+mod stats;
+
+use pyo3::prelude::*;
+use selfcd::Method;
+
+/// Names of every detection method the engine knows, in report order.
+#[pyfunction]
+fn methods() -> Vec<&'static str> {
+    Method::ALL.iter().map(|m| m.name()).collect()
+}
+
+/// Names of the methods that may miss contacts by design.
+#[pyfunction]
+fn non_conservative_methods() -> Vec<&'static str> {
+    Method::ALL.iter().filter(|m| !m.is_conservative()).map(|m| m.name()).collect()
+}
+
+/// Names of the keyword options the `sensor-gated` method takes (the sensor's parameters).
+#[pyfunction]
+fn sensor_options() -> Vec<&'static str> {
+    detector::SENSOR_OPTIONS.to_vec()
+}
+
+/// The extension module.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
+    m.add_function(wrap_pyfunction!(non_conservative_methods, m)?)?;
+    m.add_function(wrap_pyfunction!(sensor_options, m)?)?;
+    m.add_class::<mesh::PyMesh>()?;
+    m.add_class::<detector::PyDetector>()?;
+    m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::reference_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::grid, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::deform, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,38 @@
+"""selfcd: self-collision detection for deforming triangle meshes.
+
+Quick start::
+
+    import selfcd
+    V, F = selfcd.scenes.grid(11)
+    det = selfcd.Detector(selfcd.Mesh(V, F))
+    pairs = det.detect(selfcd.scenes.deform(V, "fold", angle=3.3))
+    print(pairs, det.last_stats["primitive_tests"])
+"""
+
+from . import scenes
+from ._api import (
+    DEFAULT_METHOD,
+    Detector,
+    Mesh,
+    compare_methods,
+    methods,
+    non_conservative_methods,
+    reference_pairs,
+    self_intersections,
+    sensor_options,
+)
+from ._core import __version__
+
+__all__ = [
+    "DEFAULT_METHOD",
+    "Detector",
+    "Mesh",
+    "compare_methods",
+    "methods",
+    "non_conservative_methods",
+    "reference_pairs",
+    "scenes",
+    "self_intersections",
+    "sensor_options",
+    "__version__",
+]

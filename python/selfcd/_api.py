@@ -1,0 +1,181 @@
+"""The public classes and functions: thin wrappers over `selfcd._core`."""
+
+from __future__ import annotations
+
+from typing import Any, Callable, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _arrays, _core
+
+DEFAULT_METHOD = "bvh-cones-contour"
+
+
+def methods() -> list[str]:
+    """Names of every detection method the engine knows, in report order."""
+    return list(_core.methods())
+
+
+def sensor_options() -> list[str]:
+    """Names of the keyword options the "sensor-gated" method takes."""
+    return list(_core.sensor_options())
+
+
+def non_conservative_methods() -> list[str]:
+    """Names of the methods that can miss contacts by design (their misses are measured)."""
+    return list(_core.non_conservative_methods())
+
+
+class Mesh:
+    """A triangle mesh: rest positions and faces, validated once, topology built once.
+
+    Args:
+        vertices: (n, 3) float array, the rest shape.
+        faces: (m, 3) integer array of vertex indices.
+
+    Raises:
+        TypeError: non-numeric vertices or non-integer faces.
+        ValueError: wrong shapes, empty mesh, NaN/inf, index out of range,
+            a face repeating a vertex, duplicate faces, degenerate rest faces.
+    """
+
+    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
+        self._inner = _core.Mesh(_arrays.points(vertices, "vertices"), _arrays.faces(faces))
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """Rest positions, (n, 3) float64 (a copy)."""
+        return self._inner.vertices
+
+    @property
+    def faces(self) -> np.ndarray:
+        """Faces, (m, 3) int64 (a copy)."""
+        return self._inner.faces
+
+    @property
+    def edges(self) -> np.ndarray:
+        """Unique edges, (e, 2) int64, smaller vertex first; proximity edge ids index this."""
+        return self._inner.edges
+
+    @property
+    def n_vertices(self) -> int:
+        """Number of vertices."""
+        return self._inner.n_vertices
+
+    @property
+    def n_faces(self) -> int:
+        """Number of faces."""
+        return self._inner.n_faces
+
+    @property
+    def mean_edge_length(self) -> float:
+        """Mean rest edge length (the particle sensor's length unit)."""
+        return self._inner.mean_edge_length
+
+    def __repr__(self) -> str:
+        return f"selfcd.Mesh(n_vertices={self.n_vertices}, n_faces={self.n_faces})"
+
+
+class Detector:
+    """Self-collision detector for one mesh, keeping its BVH (and sensor) between calls.
+
+    Args:
+        mesh: the mesh to watch.
+        method: a name from `selfcd.methods()`, e.g. "brute", "bvh",
+            "bvh-cones", "bvh-cones-contour" (default, conservative).
+        thickness: when > 0, vertex-triangle and edge-edge pairs closer than
+            this are reported in `last_proximity` too.
+        **method_options: options of the method; "sensor-gated" takes the
+            particle sensor's parameters (`selfcd.sensor_options()`: count, a, b,
+            n_min, n_max, epsilon, step_gain, max_step, tolerance, inner,
+            refit_every_frame; lengths in mean-edge units). Any other option
+            raises TypeError.
+    """
+
+    def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0, **method_options: Any) -> None:
+        if not isinstance(mesh, Mesh):
+            raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+        if not isinstance(method, str):
+            raise TypeError(f"method must be a string, got {type(method).__name__}")
+        self.mesh = mesh
+        self._inner = _core.Detector(mesh._inner, method, float(thickness), method_options or None)
+
+    @property
+    def method(self) -> str:
+        """The method's name."""
+        return self._inner.method
+
+    @property
+    def thickness(self) -> float:
+        """Proximity thickness (0: intersections only)."""
+        return self._inner.thickness
+
+    def detect(self, positions: npt.ArrayLike | None = None) -> np.ndarray:
+        """Intersecting face pairs at `positions` ((n, 3); default: the rest shape).
+
+        Returns:
+            (k, 2) int64 array of face indices, i < j, rows sorted.
+        """
+        pos = self.mesh.vertices if positions is None else positions
+        return self._inner.detect(_arrays.points(pos, "positions", self.mesh.n_vertices))
+
+    def particles(self) -> np.ndarray:
+        """Current sensor particle positions, (k, 3) float64; (0, 3) for methods without a sensor."""
+        return self._inner.particles()
+
+    @property
+    def last_stats(self) -> dict[str, Any] | None:
+        """FrameStats of the last `detect` call (times in seconds, counters), or None."""
+        return self._inner.last_stats
+
+    @property
+    def last_proximity(self) -> dict[str, np.ndarray] | None:
+        """Proximity contacts of the last call, or None before the first call.
+
+        Keys: vertex_triangle (k,2) [vertex, face], vertex_triangle_distance (k,),
+        vertex_triangle_bary (k,3); edge_edge (k,2) edge ids into `Mesh.edges`,
+        edge_edge_vertices (k,4), edge_edge_distance (k,), edge_edge_params (k,2).
+        All empty when thickness is 0.
+        """
+        return self._inner.last_proximity
+
+    def __repr__(self) -> str:
+        return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
+
+
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> np.ndarray:
+    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted."""
+    mesh = Mesh(vertices, faces)
+    return _core.self_intersections(mesh._inner, _arrays.points(vertices))
+
+
+def compare_methods(
+    mesh: Mesh,
+    frames: npt.ArrayLike,
+    methods: Sequence[str] | None = None,
+    thickness: float = 0.0,
+    progress: Callable[[int], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Runs each method over the same frames and counts misses against the exact reference.
+
+    Args:
+        mesh: the mesh.
+        frames: (f, n, 3) positions, in order (stateful methods see an animation).
+        methods: method names; default every method.
+        thickness: proximity thickness passed to every detector.
+        progress: called with the number of (method, frame) runs done so far.
+
+    Returns:
+        One dict per method: "method", "stats" (per-frame arrays keyed like
+        `Detector.last_stats`; "triggered" is int8 with -1 for methods without
+        a sensor), "missed" and "spurious" (int64 per frame).
+    """
+    arr = _arrays.frames(frames, mesh.n_vertices)
+    names = None if methods is None else list(methods)
+    return _core.compare_methods(mesh._inner, arr, names, float(thickness), progress)
+
+
+def reference_pairs(mesh: Mesh, frames: npt.ArrayLike) -> list[np.ndarray]:
+    """Exact intersecting face pairs of each frame, as a list of (k, 2) int64 arrays."""
+    return _core.reference_pairs(mesh._inner, _arrays.frames(frames, mesh.n_vertices))

@@ -1,0 +1,61 @@
+"""Input checks shared by the public API: whole-array numpy work only.
+
+Each function turns array-likes into the contiguous dtype the engine takes, or
+raises TypeError (wrong kind of data) / ValueError (wrong shape or values)
+with a message naming the argument and the problem.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+_INT64_MAX = np.iinfo(np.int64).max
+
+
+def _as_array(value: npt.ArrayLike, name: str) -> np.ndarray:
+    """`value` as an ndarray; non-numeric data raises TypeError."""
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # ragged lists and the like
+        raise ValueError(f"{name} is not a rectangular array: {exc}") from None
+    if arr.dtype.kind not in "fiu":
+        raise TypeError(f"{name} must be a numeric array, got dtype {arr.dtype}")
+    return arr
+
+
+def _check_n3(arr: np.ndarray, name: str, rows: str) -> None:
+    """Raises ValueError unless `arr` is 2-d with 3 columns."""
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must have shape ({rows}, 3), got {arr.shape}")
+
+
+def points(value: npt.ArrayLike, name: str = "vertices", n: int | None = None) -> np.ndarray:
+    """An (n,3) float64 C-contiguous array of coordinates.
+
+    Non-finite values are left for the engine, which names the vertex.
+    """
+    arr = _as_array(value, name)
+    _check_n3(arr, name, "n")
+    if n is not None and arr.shape[0] != n:
+        raise ValueError(f"{name} has {arr.shape[0]} vertices, the mesh has {n}")
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def faces(value: npt.ArrayLike, name: str = "faces") -> np.ndarray:
+    """An (m,3) int64 C-contiguous array of vertex indices."""
+    arr = _as_array(value, name)
+    if arr.dtype.kind == "f":
+        raise TypeError(f"{name} must be an integer array, got dtype {arr.dtype}")
+    _check_n3(arr, name, "m")
+    if arr.dtype.kind == "u" and arr.size and int(arr.max()) > _INT64_MAX:
+        raise ValueError(f"{name} has vertex index {int(arr.max())}, too large for any mesh")
+    return np.ascontiguousarray(arr, dtype=np.int64)
+
+
+def frames(value: npt.ArrayLike, n: int, name: str = "frames") -> np.ndarray:
+    """An (f,n,3) float64 C-contiguous array of positions over time."""
+    arr = _as_array(value, name)
+    if arr.ndim != 3 or arr.shape[1:] != (n, 3):
+        raise ValueError(f"{name} must have shape (frames, {n}, 3), got {arr.shape}")
+    return np.ascontiguousarray(arr, dtype=np.float64)

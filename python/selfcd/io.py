@@ -1,0 +1,70 @@
+"""Reading meshes and animations: OBJ, PLY and the other formats trimesh reads,
+and .npz archives holding arrays V (vertices) and F (faces)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+class MeshFileError(ValueError):
+    """A mesh file could not be read or does not fit the others in a sequence."""
+
+
+def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    with np.load(path) as data:
+        for v_key, f_key in (("V", "F"), ("vertices", "faces")):
+            if v_key in data and f_key in data:
+                return np.asarray(data[v_key]), np.asarray(data[f_key])
+        raise MeshFileError(f"{path}: .npz needs arrays V and F (or vertices and faces), has {sorted(data.files)}")
+
+
+def _load_trimesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh  # imported lazily: it is only needed for mesh files
+
+    kwargs = {"maintain_order": True} if path.suffix.lower() == ".obj" else {}
+    try:
+        mesh = trimesh.load(path, process=False, force="mesh", **kwargs)
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        raise MeshFileError(f"{path}: cannot read mesh: {exc}") from None
+    if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
+        raise MeshFileError(f"{path}: no triangles found")
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+
+
+def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n,3), faces (m,3)) of one file; raises MeshFileError."""
+    path = Path(path)
+    if not path.is_file():
+        raise MeshFileError(f"{path}: no such file")
+    if path.suffix.lower() == ".npz":
+        return _load_npz(path)
+    return _load_trimesh(path)
+
+
+def load_sequence(paths: list[str | Path]) -> tuple[np.ndarray, np.ndarray]:
+    """An animation from files sharing faces: (frames (f,n,3), faces (m,3)).
+
+    Raises MeshFileError when a file's faces differ from the first file's.
+    """
+    frames, faces = [], None
+    for p in paths:
+        v, f = load_mesh(p)
+        if faces is None:
+            faces = f
+        elif f.shape != faces.shape or not np.array_equal(f, faces):
+            raise MeshFileError(f"{p}: faces differ from {paths[0]}; a sequence must share its faces")
+        if frames and v.shape != frames[0].shape:
+            raise MeshFileError(f"{p}: {len(v)} vertices, but {paths[0]} has {len(frames[0])}")
+        frames.append(v)
+    if faces is None:
+        raise MeshFileError("no files given")
+    return np.stack(frames), faces
+
+
+def save_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> None:
+    """Writes a plain OBJ file (1-based indices), for tests and examples."""
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in np.asarray(vertices, dtype=np.float64)]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.asarray(faces, dtype=np.int64)]
+    Path(path).write_text("\n".join(lines) + "\n")

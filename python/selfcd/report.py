@@ -1,0 +1,226 @@
+"""The benchmark report: one self-contained HTML page (plotly.js embedded, no
+network needed) plus summary.json.
+
+Per scene: the paper's figure (detection time and primitive tests per frame
+and method, sensor-triggered frames shaded, missed contacts), a 3D playback of
+the cloth with contacts highlighted and sensor particles drawn, and a summary
+table over every scene and method.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+import plotly.io as pio
+from plotly.offline import get_plotlyjs
+from plotly.subplots import make_subplots
+
+from .demo import SceneResult, summarize
+
+#: Colours per method, stable across scenes.
+PALETTE = ["#7f7f7f", "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"]
+#: Playback frames at most (the animation is subsampled beyond this).
+MAX_PLAYBACK_FRAMES = 120
+
+CLOTH, CONTACT, MISSED = "#9ecae1", "#d62728", "#ffbf00"
+
+
+def _colors(methods: list[str]) -> dict[str, str]:
+    return {m: PALETTE[i % len(PALETTE)] for i, m in enumerate(methods)}
+
+
+def _intervals(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end] frame intervals where `mask` is true."""
+    out, start = [], None
+    for i, on in enumerate(mask):
+        if on and start is None:
+            start = i
+        if not on and start is not None:
+            out.append((start, i - 1))
+            start = None
+    if start is not None:
+        out.append((start, len(mask) - 1))
+    return out
+
+
+def benchmark_figure(result: SceneResult, colors: dict[str, str]) -> go.Figure:
+    """The paper's figure 4/6/8 for one scene: time, primitive tests and misses per frame."""
+    fig = make_subplots(
+        rows=3, cols=1, shared_xaxes=True, vertical_spacing=0.06,
+        subplot_titles=("Detection time per frame (ms)", "Primitive (triangle-triangle) tests per frame",
+                        "Contacts: exact reference and missed per method"),
+    )
+    frames = np.arange(result.scene.frames.shape[0])
+    for run in result.runs:
+        m, s, c = run["method"], run["stats"], colors[run["method"]]
+        fig.add_scatter(x=frames, y=np.asarray(s["total_time"]) * 1e3, name=m, legendgroup=m, line_color=c, row=1, col=1)
+        fig.add_scatter(x=frames, y=s["primitive_tests"], name=m, legendgroup=m, line_color=c, showlegend=False,
+                        row=2, col=1)
+        if np.any(run["missed"]):
+            fig.add_bar(x=frames, y=run["missed"], name=f"{m}: missed", legendgroup=m, marker_color=c, row=3, col=1)
+    fig.add_scatter(x=frames, y=[len(r) for r in result.reference], name="reference contacts",
+                    line=dict(color="black", dash="dot"), row=3, col=1)
+    _shade_triggers(fig, result)
+    fig.update_xaxes(title_text="frame", row=3, col=1)
+    fig.update_layout(height=720, margin=dict(l=60, r=20, t=40, b=40), legend=dict(orientation="h", y=-0.08),
+                      barmode="group", template="plotly_white")
+    return fig
+
+
+def _shade_triggers(fig: go.Figure, result: SceneResult) -> None:
+    """Shades the frames where a sensor-gated method's sensor triggered the traversal."""
+    for run in result.runs:
+        trig = np.asarray(run["stats"]["triggered"])
+        if (trig < 0).all():
+            continue
+        for a, b in _intervals(trig == 1):
+            fig.add_vrect(x0=a - 0.5, x1=b + 0.5, fillcolor="#2ca02c", opacity=0.12, line_width=0, row="all", col=1)
+        fig.add_scatter(x=[None], y=[None], mode="markers", marker=dict(color="#2ca02c", symbol="square", opacity=0.4),
+                        name=f"{run['method']}: sensor triggered", row=1, col=1)
+
+
+def _face_colors(n_faces: int, pairs: np.ndarray, missed: np.ndarray | None) -> list[str]:
+    """Cloth colour per face: contacts red, contacts some method missed amber."""
+    colors = np.full(n_faces, CLOTH, dtype=object)
+    if len(pairs):
+        colors[np.unique(pairs)] = CONTACT
+    if missed is not None and len(missed):
+        colors[np.unique(missed)] = MISSED
+    return colors.tolist()
+
+
+def _missed_pairs(result: SceneResult, frame: int) -> np.ndarray | None:
+    """The reference pairs of `frame` when some method missed contacts there, else None
+    (the engine counts misses per frame; the playback marks that frame's contacts)."""
+    if any(int(run["missed"][frame]) for run in result.runs):
+        return result.reference[frame]
+    return None
+
+
+def playback_figure(result: SceneResult) -> go.Figure:
+    """3D playback of the cloth over the frames, contacts highlighted, sensor particles drawn."""
+    scene = result.scene
+    n = scene.frames.shape[0]
+    picks = np.unique(np.linspace(0, n - 1, min(n, MAX_PLAYBACK_FRAMES)).round().astype(int))
+    F = scene.faces
+
+    def traces(f: int) -> list[Any]:
+        p = scene.frames[f]
+        data = [go.Mesh3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2],
+                          facecolor=_face_colors(len(F), result.reference[f], _missed_pairs(result, f)),
+                          flatshading=True, name="cloth", showscale=False,
+                          lighting=dict(ambient=0.55, diffuse=0.7, specular=0.1))]
+        q = result.particles[f] if result.particles is not None else np.zeros((0, 3))
+        data.append(go.Scatter3d(x=q[:, 0], y=q[:, 1], z=q[:, 2], mode="markers", name="sensor particles",
+                                 marker=dict(size=6, color="#2ca02c", line=dict(color="black", width=1))))
+        return data
+
+    fig = go.Figure(data=traces(int(picks[0])),
+                    frames=[go.Frame(data=traces(int(f)), name=str(f), traces=[0, 1]) for f in picks])
+    lo, hi = scene.frames.reshape(-1, 3).min(0), scene.frames.reshape(-1, 3).max(0)
+    span = np.maximum(hi - lo, 1e-9)
+    pad = 0.05 * span.max()
+    fig.update_layout(
+        height=560, margin=dict(l=0, r=0, t=30, b=0), template="plotly_white",
+        scene=dict(xaxis=dict(range=[lo[0] - pad, hi[0] + pad]), yaxis=dict(range=[lo[1] - pad, hi[1] + pad]),
+                   zaxis=dict(range=[lo[2] - pad, hi[2] + pad]), aspectmode="manual",
+                   aspectratio=dict(zip("xyz", (span + 2 * pad) / (span.max() + 2 * pad)))),
+        updatemenus=[dict(type="buttons", x=0.02, y=0.02, xanchor="left", yanchor="bottom", buttons=[
+            dict(label="Play", method="animate",
+                 args=[None, dict(frame=dict(duration=60, redraw=True), fromcurrent=True, transition=dict(duration=0))]),
+            dict(label="Pause", method="animate",
+                 args=[[None], dict(frame=dict(duration=0, redraw=False), mode="immediate")]),
+        ])],
+        sliders=[dict(active=0, x=0.15, len=0.83, y=0.02, currentvalue=dict(prefix="frame "), steps=[
+            dict(label=str(f), method="animate",
+                 args=[[str(f)], dict(frame=dict(duration=0, redraw=True), mode="immediate")]) for f in picks
+        ])],
+    )
+    return fig
+
+
+def summary_table(summaries: list[dict[str, Any]]) -> str:
+    """HTML table: per scene and method, time per frame, primitive tests, misses, triggers."""
+    head = ("<tr><th>scene</th><th>method</th><th>mean ms/frame</th><th>median ms/frame</th>"
+            "<th>mean primitive tests</th><th>total primitive tests</th><th>missed contacts</th>"
+            "<th>frames with misses</th><th>sensor triggered</th></tr>")
+    rows = []
+    for s in summaries:
+        for m, r in s["methods"].items():
+            trig = "-" if r["triggered_frames"] is None else f"{r['triggered_frames']} / {r['frames']}"
+            miss_cls = ' class="miss"' if r["missed_contacts"] else ""
+            rows.append(
+                f"<tr><td>{html.escape(s['name'])}</td><td>{html.escape(m)}</td>"
+                f"<td>{r['mean_time_ms']:.3f}</td><td>{r['median_time_ms']:.3f}</td>"
+                f"<td>{r['mean_primitive_tests']:.1f}</td><td>{r['total_primitive_tests']}</td>"
+                f"<td{miss_cls}>{r['missed_contacts']}</td><td>{r['frames_with_misses']}</td><td>{trig}</td></tr>")
+    return f'<table id="summary">{head}{"".join(rows)}</table>'
+
+
+CSS = """
+body{font-family:system-ui,sans-serif;margin:0 auto;max-width:1200px;padding:1em 2em;color:#222}
+h1{margin-bottom:0.2em} .lede{color:#555;margin-top:0}
+table{border-collapse:collapse;font-size:0.9em;margin:1em 0} td,th{border:1px solid #ddd;padding:4px 8px;text-align:right}
+td:first-child,td:nth-child(2),th{text-align:left} th{background:#f4f4f4} td.miss{background:#ffe9a8;font-weight:bold}
+section.scene{border-top:2px solid #eee;margin-top:2em} .legend span{display:inline-block;width:1em;height:1em;
+vertical-align:middle;margin:0 0.3em 0 1em;border:1px solid #999}
+"""
+
+
+def _div(fig: go.Figure, div_id: str) -> str:
+    return pio.to_html(fig, include_plotlyjs=False, full_html=False, div_id=div_id,
+                       config={"displaylogo": False, "responsive": True})
+
+
+def _scene_section(k: int, result: SceneResult, summary: dict[str, Any], colors: dict[str, str]) -> str:
+    s = summary
+    figure_no = result.scene.extra.get("paper_figure")
+    label = f" (paper figure {figure_no})" if figure_no else ""
+    return f"""
+<section class="scene" id="scene-{k}">
+<h2>{html.escape(s['title'])}{label}</h2>
+<p>{html.escape(s['description'])} {s['vertices']} vertices, {s['triangles']} triangles, {s['frames']} frames;
+{s['frames_in_contact']} frames in self-contact (at most {s['max_contacts']} intersecting triangle pairs).</p>
+<div class="chart">{_div(benchmark_figure(result, colors), f"bench-{k}")}</div>
+<h3>Playback</h3>
+<p class="legend">Cloth<span style="background:{CLOTH}"></span> intersecting triangles
+<span style="background:{CONTACT}"></span> contacts in frames where some method missed
+<span style="background:{MISSED}"></span> sensor particles<span style="background:#2ca02c"></span></p>
+<div class="view3d">{_div(playback_figure(result), f"view-{k}")}</div>
+</section>"""
+
+
+def render_html(results: list[SceneResult], summaries: list[dict[str, Any]], meta: dict[str, Any]) -> str:
+    """The whole report page as a string."""
+    methods = [run["method"] for run in results[0].runs] if results else []
+    colors = _colors(methods)
+    sections = "".join(_scene_section(k, r, s, colors) for k, (r, s) in enumerate(zip(results, summaries)))
+    note = html.escape(meta.get("note", ""))
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>selfcd benchmark report</title>
+<style>{CSS}</style><script type="text/javascript">{get_plotlyjs()}</script></head>
+<body>
+<h1>selfcd benchmark report</h1>
+<p class="lede">Self-collision detection on the cloth scenes of Lee et al.'s particle + hierarchy paper.
+Every method runs on the same recorded frames; misses are counted against the exact reference.
+Methods: {html.escape(", ".join(methods))}. {note}</p>
+<h2>Summary</h2>
+{summary_table(summaries)}
+{sections}
+<p class="lede">selfcd {html.escape(str(meta.get("version", "")))}; generated in {meta.get("seconds", 0):.1f} s.</p>
+</body></html>"""
+
+
+def write_report(results: list[SceneResult], out_dir: Path, meta: dict[str, Any]) -> dict[str, Any]:
+    """Writes out_dir/index.html and out_dir/summary.json; returns the summary."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    summaries = [summarize(r) for r in results]
+    summary = {"meta": meta, "scenes": summaries}
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
+    (out_dir / "index.html").write_text(render_html(results, summaries, meta), encoding="utf-8")
+    return summary
