@@ -5,6 +5,7 @@
 //! queries, and (see the crate README) the paper's particle sensor and cloth
 //! simulator. Start with [`Mesh::new`] and [`detect::new_detector`].
 
+pub mod bench;
 pub mod bvh;
 pub mod cloth;
 pub mod detect;

@@ -18,7 +18,11 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
     let mut v = Vec::with_capacity(nx * ny);
     for j in 0..ny {
         for i in 0..nx {
-            v.push([sx * i as f64 / (nx - 1) as f64, sy * j as f64 / (ny - 1) as f64, 0.0]);
+            v.push([
+                sx * i as f64 / (nx - 1) as f64,
+                sy * j as f64 / (ny - 1) as f64,
+                0.0,
+            ]);
         }
     }
     let id = |i: usize, j: usize| (j * nx + i) as u32;
@@ -89,13 +93,74 @@ pub enum Deformation {
     ZFold { layers: usize, gap: f64 },
     /// A smooth random displacement of size `amplitude * width` and wavelength
     /// `wavelength * width`; large amplitudes fold the sheet through itself.
-    Crumple { amplitude: f64, wavelength: f64, seed: u64 },
+    Crumple {
+        amplitude: f64,
+        wavelength: f64,
+        seed: u64,
+    },
     /// Twist about the x axis through the centre by `turns` full turns end to end.
     Twist { turns: f64 },
     /// Roll from the x = max end onto a spiral of `turns` turns, layers `gap * width` apart.
     Roll { turns: f64, gap: f64 },
     /// Independent random offsets of each vertex, up to `amplitude * width`.
     Noise { amplitude: f64, seed: u64 },
+}
+
+/// The benchmark's states of a square cloth: flat; crumpled so that distant
+/// parts pass through each other; Z-folded into 8 layers half an edge apart
+/// that do not touch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BenchState {
+    /// Unchanged, flat.
+    Flat,
+    /// Strong smooth random displacement: many self-intersections.
+    Crumpled,
+    /// Accordion layers 0.5 edge lengths apart, not touching.
+    Folded,
+}
+
+impl BenchState {
+    /// Every state, in report order.
+    pub const ALL: [BenchState; 3] = [BenchState::Flat, BenchState::Crumpled, BenchState::Folded];
+
+    /// The state's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            BenchState::Flat => "flat",
+            BenchState::Crumpled => "crumpled",
+            BenchState::Folded => "folded",
+        }
+    }
+
+    /// The state's shape for a square grid with `side` vertices per side.
+    pub fn deformation(self, side: usize) -> Deformation {
+        match self {
+            BenchState::Flat => Deformation::Flat,
+            BenchState::Crumpled => Deformation::Crumple {
+                amplitude: 0.3,
+                wavelength: 0.4,
+                seed: 1,
+            },
+            BenchState::Folded => Deformation::ZFold {
+                layers: 8,
+                gap: 0.5 / (side - 1) as f64,
+            },
+        }
+    }
+}
+
+impl std::str::FromStr for BenchState {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<BenchState> {
+        BenchState::ALL
+            .into_iter()
+            .find(|b| b.name() == s)
+            .ok_or_else(|| {
+                crate::Error::InvalidParameter(format!(
+                    "unknown state {s:?}; expected flat, crumpled or folded"
+                ))
+            })
+    }
 }
 
 /// Extent of the rest shape: (min corner, width along x).
@@ -125,20 +190,38 @@ impl Deformation {
                         let local = (u - k as f64) * panel;
                         let on_fold = k > 0 && (u - k as f64).abs() < 1e-12;
                         let x = if k % 2 == 0 { local } else { panel - local };
-                        let z = if on_fold { (k as f64 - 0.5) * gap * w } else { k as f64 * gap * w };
+                        let z = if on_fold {
+                            (k as f64 - 0.5) * gap * w
+                        } else {
+                            k as f64 * gap * w
+                        };
                         DVec3::new(lo.x + x, p.y, p.z + z)
                     })
                     .collect()
             }
-            Deformation::Crumple { amplitude, wavelength, seed } => {
+            Deformation::Crumple {
+                amplitude,
+                wavelength,
+                seed,
+            } => {
                 let mut rng = SplitMix::new(seed);
                 let waves: Vec<(DVec3, DVec3, f64)> = (0..8)
-                    .map(|_| (rng.direction() * (2.0 * PI / (wavelength * w)), rng.direction(), 2.0 * PI * rng.unit()))
+                    .map(|_| {
+                        (
+                            rng.direction() * (2.0 * PI / (wavelength * w)),
+                            rng.direction(),
+                            2.0 * PI * rng.unit(),
+                        )
+                    })
                     .collect();
                 rest.iter()
                     .map(|&p| {
                         let q = p - lo;
-                        p + waves.iter().map(|(k, d, ph)| *d * (k.dot(q) + ph).sin()).sum::<DVec3>() * (amplitude * w / 8f64.sqrt())
+                        p + waves
+                            .iter()
+                            .map(|(k, d, ph)| *d * (k.dot(q) + ph).sin())
+                            .sum::<DVec3>()
+                            * (amplitude * w / 8f64.sqrt())
                     })
                     .collect()
             }
@@ -148,14 +231,20 @@ impl Deformation {
                     .map(|p| {
                         let a = 2.0 * PI * turns * (p.x - lo.x) / w;
                         let (y, z) = (p.y - yc, p.z);
-                        DVec3::new(p.x, yc + y * a.cos() - z * a.sin(), y * a.sin() + z * a.cos())
+                        DVec3::new(
+                            p.x,
+                            yc + y * a.cos() - z * a.sin(),
+                            y * a.sin() + z * a.cos(),
+                        )
                     })
                     .collect()
             }
             Deformation::Roll { turns, gap } => roll(rest, lo, w, turns, gap * w),
             Deformation::Noise { amplitude, seed } => {
                 let mut rng = SplitMix::new(seed);
-                rest.iter().map(|&p| p + rng.direction() * (amplitude * w * rng.unit())).collect()
+                rest.iter()
+                    .map(|&p| p + rng.direction() * (amplitude * w * rng.unit()))
+                    .collect()
             }
         }
     }
@@ -206,7 +295,10 @@ fn roll(rest: &[DVec3], lo: DVec3, w: f64, turns: f64, gap: f64) -> Vec<DVec3> {
 
 /// Applies a rigid motion (rotation then translation) to positions.
 pub fn rigid(positions: &[DVec3], rotation: DQuat, translation: DVec3) -> Vec<DVec3> {
-    positions.iter().map(|&p| rotation * p + translation).collect()
+    positions
+        .iter()
+        .map(|&p| rotation * p + translation)
+        .collect()
 }
 
 /// Scales positions about the origin.
@@ -227,8 +319,14 @@ mod tests {
 
     #[test]
     fn fold_preserves_lengths_along_x() {
-        let rest: Vec<DVec3> = (0..=100).map(|i| DVec3::new(i as f64 / 100.0, 0.0, 0.0)).collect();
-        let p = Deformation::Fold { angle: PI, radius: 0.05 }.apply(&rest);
+        let rest: Vec<DVec3> = (0..=100)
+            .map(|i| DVec3::new(i as f64 / 100.0, 0.0, 0.0))
+            .collect();
+        let p = Deformation::Fold {
+            angle: PI,
+            radius: 0.05,
+        }
+        .apply(&rest);
         let len: f64 = p.windows(2).map(|w| (w[1] - w[0]).length()).sum();
         assert!((len - 1.0).abs() < 1e-3, "length {len}");
         assert!((p[100].z - 0.1).abs() < 1e-9 && p[100].x < 0.6);

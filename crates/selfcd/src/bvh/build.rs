@@ -7,7 +7,7 @@
 //! (the cone and contour tests need that). When no two remaining nodes share
 //! an edge (separate components), they are paired in spatial order.
 
-use super::contour::{self, merge_contours, count_common, pack, Patches};
+use super::contour::{self, count_common, merge_contours, pack, Patches};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
@@ -33,7 +33,9 @@ impl PatchBuilder {
         };
         for (t, tri) in mesh.triangles().iter().enumerate() {
             let e = topo.tri_edges[t];
-            let mut c: Vec<u32> = (0..3).map(|k| pack(e[k], tri[k], tri[(k + 1) % 3])).collect();
+            let mut c: Vec<u32> = (0..3)
+                .map(|k| pack(e[k], tri[k], tri[(k + 1) % 3]))
+                .collect();
             c.sort_unstable();
             let mut v = tri.to_vec();
             v.sort_unstable();
@@ -51,18 +53,29 @@ impl PatchBuilder {
         let mut v: Vec<u32> = c.iter().flat_map(|&e| contour::unpack(mesh, e)).collect();
         v.sort_unstable();
         v.dedup();
-        self.euler.push(self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32);
-        self.eligible.push(self.eligible[l] && self.eligible[r] && !info.conflict);
+        self.euler
+            .push(self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32);
+        self.eligible
+            .push(self.eligible[l] && self.eligible[r] && !info.conflict);
         self.contour.push(c);
         self.boundary.push(v);
     }
 
     fn finish(self) -> Patches {
-        let flat = |rows: Vec<Vec<u32>>| Csr::from_pairs(
-            rows.len(),
-            rows.iter().enumerate().flat_map(|(i, r)| r.iter().map(move |&x| (i as u32, x))),
-        );
-        Patches { contour: flat(self.contour), boundary: flat(self.boundary), euler: self.euler, eligible: self.eligible }
+        let flat = |rows: Vec<Vec<u32>>| {
+            Csr::from_pairs(
+                rows.len(),
+                rows.iter()
+                    .enumerate()
+                    .flat_map(|(i, r)| r.iter().map(move |&x| (i as u32, x))),
+            )
+        };
+        Patches {
+            contour: flat(self.contour),
+            boundary: flat(self.boundary),
+            euler: self.euler,
+            eligible: self.eligible,
+        }
     }
 }
 
@@ -70,7 +83,9 @@ impl PatchBuilder {
 pub fn build(mesh: &Mesh) -> Bvh {
     let n = mesh.n_triangles();
     let rest = mesh.rest();
-    let mut boxes: Vec<Aabb> = (0..n).map(|t| Aabb::from_points(&mesh.corners(rest, t))).collect();
+    let mut boxes: Vec<Aabb> = (0..n)
+        .map(|t| Aabb::from_points(&mesh.corners(rest, t)))
+        .collect();
     let mut patches = PatchBuilder::leaves(mesh);
     let mut children: Vec<[u32; 2]> = Vec::with_capacity(n.saturating_sub(1));
     let mut levels = Vec::new();
@@ -108,7 +123,14 @@ pub fn build(mesh: &Mesh) -> Bvh {
         graph.dedup();
     }
     let cones = vec![NormalCone::FULL; boxes.len()];
-    let mut bvh = Bvh { n_leaves: n, children, levels, boxes, cones, patches: patches.finish() };
+    let mut bvh = Bvh {
+        n_leaves: n,
+        children,
+        levels,
+        boxes,
+        cones,
+        patches: patches.finish(),
+    };
     bvh.refit(mesh, rest);
     bvh
 }
@@ -134,7 +156,13 @@ fn leaf_graph(mesh: &Mesh) -> Vec<(u32, u32)> {
 fn greedy_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
     let mut cand: Vec<(f64, u32, u32)> = graph
         .iter()
-        .map(|&(a, b)| (boxes[a as usize].union(&boxes[b as usize]).surface_area(), a, b))
+        .map(|&(a, b)| {
+            (
+                boxes[a as usize].union(&boxes[b as usize]).surface_area(),
+                a,
+                b,
+            )
+        })
         .collect();
     cand.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
     let mut used = vec![false; boxes.len()];
@@ -152,10 +180,22 @@ fn greedy_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
 /// Pairs nodes with no shared edges (separate components) in order along the
 /// longest axis of their joint box; an odd one out waits for the next level.
 fn spatial_pairs(active: &[u32], boxes: &[Aabb]) -> Vec<(u32, u32)> {
-    let all = active.iter().fold(Aabb::EMPTY, |b, &a| b.union(&boxes[a as usize]));
+    let all = active
+        .iter()
+        .fold(Aabb::EMPTY, |b, &a| b.union(&boxes[a as usize]));
     let ext = all.max - all.min;
-    let k = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+    let k = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
     let mut order = active.to_vec();
-    order.sort_by(|&a, &b| boxes[a as usize].center()[k].total_cmp(&boxes[b as usize].center()[k]).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| {
+        boxes[a as usize].center()[k]
+            .total_cmp(&boxes[b as usize].center()[k])
+            .then(a.cmp(&b))
+    });
     order.chunks_exact(2).map(|p| (p[0], p[1])).collect()
 }

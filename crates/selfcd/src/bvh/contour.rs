@@ -17,10 +17,17 @@
 //! means one simple star-shaped loop; the projection is then a local,
 //! orientation-preserving map of a disk whose boundary goes once around a
 //! simple curve, so its degree is 1 and it is one-to-one.)
+//!
+//! The loop is checked in O(contour) by the star test about the patch's box
+//! centre; when that fails, contours up to 64 edges get the exact condition
+//! (one simple counter-clockwise loop, quadratic). The union of two such disks
+//! that share only one vertex (a pinch) is culled when their loops touch only at
+//! that vertex and neither lies inside the other: the projection is then
+//! one-to-one on each and their images meet only at the shared vertex.
 
+use crate::geom::distance::segment_segment_distance2;
 use crate::mesh::{Csr, Mesh};
 use glam::DVec3;
-use std::f64::consts::TAU;
 
 /// Per-node patch topology, fixed at build time.
 #[derive(Debug, Clone, Default)]
@@ -118,42 +125,257 @@ pub fn have_common(a: &[u32], b: &[u32]) -> bool {
     false
 }
 
-/// The star test: projected along `axis`, does the centroid of the contour's
-/// start points lie strictly left of every directed contour edge, with the
-/// contour turning around it exactly once? Conservative: `false` means "cannot
-/// tell", and the caller descends.
-pub fn star_contour(mesh: &Mesh, positions: &[DVec3], contour: &[u32], axis: DVec3) -> bool {
-    if contour.len() < 3 {
+/// A contour edge projected on the plane normal to a cone axis: endpoints and vertex ids.
+#[derive(Debug, Clone, Copy)]
+pub struct Seg {
+    /// Projected start and end.
+    pub p: [[f64; 2]; 2],
+    /// Vertex ids of start and end.
+    pub v: [u32; 2],
+}
+
+/// Contours longer than this are not given the quadratic simple-loop test.
+const SIMPLE_LOOP_MAX: usize = 64;
+
+/// Projects directed contour edges along `axis` (relative to `origin`) into `out`.
+/// The basis (u, w, axis) is right-handed, so counter-clockwise seen from +axis
+/// stays counter-clockwise.
+pub fn project_contour(
+    mesh: &Mesh,
+    positions: &[DVec3],
+    contour: &[u32],
+    plane: &Plane,
+    out: &mut Vec<Seg>,
+) {
+    out.clear();
+    out.extend(contour.iter().map(|&e| {
+        let v = unpack(mesh, e);
+        Seg {
+            p: [
+                plane.project(positions[v[0] as usize]),
+                plane.project(positions[v[1] as usize]),
+            ],
+            v,
+        }
+    }));
+}
+
+/// The plane normal to a cone axis through an origin, with a right-handed
+/// basis (u, w, axis): counter-clockwise seen from +axis stays counter-clockwise.
+#[derive(Debug, Clone, Copy)]
+pub struct Plane {
+    origin: DVec3,
+    u: DVec3,
+    w: DVec3,
+}
+
+impl Plane {
+    /// The plane normal to unit `axis` through `origin`.
+    pub fn new(axis: DVec3, origin: DVec3) -> Plane {
+        let u = axis.any_orthonormal_vector();
+        Plane {
+            origin,
+            u,
+            w: axis.cross(u),
+        }
+    }
+
+    /// 2D coordinates of the projection of `p`.
+    #[inline]
+    pub fn project(&self, p: DVec3) -> [f64; 2] {
+        let d = p - self.origin;
+        [d.dot(self.u), d.dot(self.w)]
+    }
+}
+
+/// The star test: does centre `c` lie strictly left of every projected edge,
+/// with the contour winding around it exactly once? With every edge turning
+/// counter-clockwise around c, the winding number is the number of edges
+/// crossing the ray from c along +u (all cross it upwards): no angle is computed.
+pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
+    if segs.len() < 3 {
         return false;
     }
-    let u = axis.any_orthonormal_vector();
-    let w = axis.cross(u); // (u, w, axis) right-handed: counter-clockwise seen from +axis
-    let proj = |v: u32| {
-        let p = positions[v as usize];
-        [p.dot(u), p.dot(w)]
-    };
-    let mut c = [0.0; 2];
-    for &e in contour {
-        let p = proj(unpack(mesh, e)[0]);
-        c[0] += p[0];
-        c[1] += p[1];
-    }
-    let inv = 1.0 / contour.len() as f64;
-    let c = [c[0] * inv, c[1] * inv];
-    let mut turn = 0.0;
-    for &e in contour {
-        let [a, b] = unpack(mesh, e);
-        let (pa, pb) = (proj(a), proj(b));
-        let (ax, ay, bx, by) = (pa[0] - c[0], pa[1] - c[1], pb[0] - c[0], pb[1] - c[1]);
-        let cross = ax * by - ay * bx;
-        let scale = (ax * ax + ay * ay).max(bx * bx + by * by);
+    let mut crossings = 0;
+    for s in segs {
+        let a = [s.p[0][0] - c[0], s.p[0][1] - c[1]];
+        let b = [s.p[1][0] - c[0], s.p[1][1] - c[1]];
+        let cross = a[0] * b[1] - a[1] * b[0];
+        let scale = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
         // Strictly left, with a relative margin far above the rounding of the projection.
         if !(cross > 1e-9 * scale) {
             return false;
         }
-        turn += cross.atan2(ax * bx + ay * by);
+        crossings += (a[1] <= 0.0 && b[1] > 0.0) as u32;
     }
-    (turn - TAU).abs() < 0.5
+    crossings == 1
+}
+
+/// Squared size of the projected contour's bounding box diagonal.
+fn extent2(segs: &[Seg]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for s in segs {
+        for p in s.p {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    }
+    (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)
+}
+
+/// Squared distance between 2D segments.
+fn seg_dist2(a: &Seg, b: &Seg) -> f64 {
+    let e = |p: [f64; 2]| DVec3::new(p[0], p[1], 0.0);
+    segment_segment_distance2(e(a.p[0]), e(a.p[1]), e(b.p[0]), e(b.p[1])).0
+}
+
+/// Squared distance from a point to a 2D segment.
+fn point_seg_dist2(p: [f64; 2], s: &Seg) -> f64 {
+    let e = |p: [f64; 2]| DVec3::new(p[0], p[1], 0.0);
+    segment_segment_distance2(e(p), e(p), e(s.p[0]), e(s.p[1])).0
+}
+
+/// True when two projected edges meet only where the mesh says they do: at a
+/// shared vertex (without folding back onto each other), or nowhere, with a
+/// relative clearance `tol2` (squared).
+fn edges_clear(a: &Seg, b: &Seg, tol2: f64) -> bool {
+    let shared = a.v.iter().any(|v| b.v.contains(v));
+    if !shared {
+        return seg_dist2(a, b) > tol2;
+    }
+    // Each far endpoint must stay clear of the other edge.
+    let far = |s: &Seg, other: &Seg| {
+        if other.v.contains(&s.v[0]) {
+            s.p[1]
+        } else {
+            s.p[0]
+        }
+    };
+    point_seg_dist2(far(a, b), b) > tol2 && point_seg_dist2(far(b, a), a) > tol2
+}
+
+/// Is the projected contour one simple counter-clockwise loop? Every vertex
+/// starts and ends exactly one edge, the edges form a single cycle, no two
+/// edges meet except consecutive ones at their shared vertex, and the signed
+/// area is positive. Quadratic; only for contours up to 64 edges.
+pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
+    let m = segs.len();
+    if !(3..=SIMPLE_LOOP_MAX).contains(&m) {
+        return false;
+    }
+    // One cycle: each vertex starts exactly one edge; walk start -> end from
+    // the first edge and come back after exactly m steps.
+    let mut by_start: Vec<(u32, u32)> = segs.iter().map(|s| (s.v[0], s.v[1])).collect();
+    by_start.sort_unstable();
+    if by_start.windows(2).any(|w| w[0].0 == w[1].0) {
+        return false;
+    }
+    let next = |v: u32| {
+        by_start
+            .binary_search_by_key(&v, |x| x.0)
+            .ok()
+            .map(|i| by_start[i].1)
+    };
+    let (mut at, mut steps) = (segs[0].v[1], 1);
+    while at != segs[0].v[0] && steps <= m {
+        match next(at) {
+            Some(v) => at = v,
+            None => return false,
+        }
+        steps += 1;
+    }
+    if steps != m {
+        return false;
+    }
+    let area2: f64 = segs
+        .iter()
+        .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
+        .sum();
+    let ext2 = extent2(segs);
+    if !(area2 > 1e-9 * ext2) {
+        return false;
+    }
+    all_pairs_clear(segs, segs, 1e-18 * ext2)
+}
+
+/// Every pair of edges (one from `a`, one from `b`; distinct pairs when they
+/// are the same list) is clear (see `edges_clear`). Sweeps along x, so only
+/// edges whose padded x-ranges overlap are compared.
+fn all_pairs_clear(a: &[Seg], b: &[Seg], tol2: f64) -> bool {
+    let same = std::ptr::eq(a, b);
+    let pad = tol2.sqrt();
+    let range = |s: &Seg| {
+        (
+            s.p[0][0].min(s.p[1][0]) - pad,
+            s.p[0][0].max(s.p[1][0]) + pad,
+        )
+    };
+    // Events: (x_min, x_max, list, index), sorted by x_min.
+    let mut ev: Vec<(f64, f64, bool, u32)> = a
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (range(s).0, range(s).1, false, i as u32))
+        .collect();
+    if !same {
+        ev.extend(
+            b.iter()
+                .enumerate()
+                .map(|(i, s)| (range(s).0, range(s).1, true, i as u32)),
+        );
+    }
+    ev.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+    let get = |e: &(f64, f64, bool, u32)| {
+        if e.2 {
+            &b[e.3 as usize]
+        } else {
+            &a[e.3 as usize]
+        }
+    };
+    for i in 0..ev.len() {
+        for j in i + 1..ev.len() {
+            if ev[j].0 > ev[i].1 {
+                break;
+            }
+            if (same || ev[i].2 != ev[j].2) && !edges_clear(get(&ev[i]), get(&ev[j]), tol2) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Is `p` inside the closed loop `segs` (crossing number, even-odd)?
+fn inside(p: [f64; 2], segs: &[Seg]) -> bool {
+    let mut c = false;
+    for s in segs {
+        let [a, b] = s.p;
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+        {
+            c = !c;
+        }
+    }
+    c
+}
+
+/// Two simple counter-clockwise loops meeting at one shared vertex: do their
+/// edges stay clear of each other and neither loop lie inside the other?
+pub fn loops_touch_only_at_shared_vertex(a: &[Seg], b: &[Seg]) -> bool {
+    if a.len() + b.len() > 2 * SIMPLE_LOOP_MAX {
+        return false;
+    }
+    if !all_pairs_clear(a, b, 1e-18 * extent2(a).max(extent2(b))) {
+        return false;
+    }
+    let outside = |s: &[Seg], loop_: &[Seg]| {
+        let shared = |v: u32| loop_.iter().any(|e| e.v[0] == v);
+        s.iter()
+            .find(|e| !shared(e.v[0]))
+            .is_some_and(|e| !inside(e.p[0], loop_))
+    };
+    outside(a, b) && outside(b, a)
 }
 
 impl Patches {
@@ -210,10 +432,84 @@ pub fn nonmanifold_triangles(mesh: &Mesh) -> Vec<bool> {
                 }
             }
         }
-        let roots = (0..fan.len() as u32).filter(|&i| find(&mut parent, i) == i).count();
+        let roots = (0..fan.len() as u32)
+            .filter(|&i| find(&mut parent, i) == i)
+            .count();
         if roots > 1 {
             fan.iter().for_each(|&t| bad[t as usize] = true);
         }
     }
     bad
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn loop_of(points: &[[f64; 2]], ids: &[u32]) -> Vec<Seg> {
+        (0..points.len())
+            .map(|i| {
+                let j = (i + 1) % points.len();
+                Seg {
+                    p: [points[i], points[j]],
+                    v: [ids[i], ids[j]],
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn simple_loops_and_stars() {
+        let square = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
+        assert!(simple_ccw_loop(&square) && star_about(&square, [0.5, 0.5]));
+        assert!(!star_about(&square, [1.5, 0.5]), "centre outside");
+        let cw: Vec<Seg> = square
+            .iter()
+            .rev()
+            .map(|s| Seg {
+                p: [s.p[1], s.p[0]],
+                v: [s.v[1], s.v[0]],
+            })
+            .collect();
+        assert!(!simple_ccw_loop(&cw) && !star_about(&cw, [0.5, 0.5]));
+        let bowtie = loop_of(&[[0., 0.], [1., 1.], [1., 0.], [0., 1.]], &[0, 1, 2, 3]);
+        assert!(!simple_ccw_loop(&bowtie));
+        // A U shape: simple but not star-shaped about its box centre.
+        let u = loop_of(
+            &[
+                [0., 0.],
+                [3., 0.],
+                [3., 3.],
+                [2., 3.],
+                [2., 1.],
+                [1., 1.],
+                [1., 3.],
+                [0., 3.],
+            ],
+            &[0, 1, 2, 3, 4, 5, 6, 7],
+        );
+        assert!(simple_ccw_loop(&u) && !star_about(&u, [1.5, 1.5]));
+        // Twice around: every edge has the centre on its left, but it winds twice.
+        let twice: Vec<[f64; 2]> = (0..8)
+            .map(|k| {
+                let a = 4.0 * std::f64::consts::PI * k as f64 / 8.0 + 0.1 * k as f64;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        assert!(!star_about(
+            &loop_of(&twice, &[0, 1, 2, 3, 4, 5, 6, 7]),
+            [0.0, 0.0]
+        ));
+    }
+
+    #[test]
+    fn pinched_loops() {
+        let a = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
+        let b = loop_of(&[[1., 1.], [2., 1.], [2., 2.], [1., 2.]], &[2, 4, 5, 6]);
+        assert!(loops_touch_only_at_shared_vertex(&a, &b));
+        let inner = loop_of(&[[1., 1.], [0.5, 0.8], [0.8, 0.5]], &[2, 7, 8]);
+        assert!(!loops_touch_only_at_shared_vertex(&a, &inner), "nested");
+        let crossing = loop_of(&[[1., 1.], [2., 1.], [0.5, 0.5]], &[2, 9, 10]);
+        assert!(!loops_touch_only_at_shared_vertex(&a, &crossing));
+    }
 }

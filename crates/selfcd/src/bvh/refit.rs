@@ -17,13 +17,24 @@ impl Bvh {
         let n = self.n_leaves;
         let leaf = |t: usize| {
             let c = mesh.corners(positions, t);
-            (Aabb::from_points(&c), NormalCone::of_triangle(c[0], c[1], c[2]))
+            (
+                Aabb::from_points(&c),
+                NormalCone::of_triangle(c[0], c[1], c[2]),
+            )
         };
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
         if n >= PAR_MIN {
-            boxes.par_iter_mut().zip(cones.par_iter_mut()).enumerate().for_each(|(t, (b, c))| (*b, *c) = leaf(t));
+            boxes
+                .par_iter_mut()
+                .zip(cones.par_iter_mut())
+                .enumerate()
+                .for_each(|(t, (b, c))| (*b, *c) = leaf(t));
         } else {
-            boxes.iter_mut().zip(cones.iter_mut()).enumerate().for_each(|(t, (b, c))| (*b, *c) = leaf(t));
+            boxes
+                .iter_mut()
+                .zip(cones.iter_mut())
+                .enumerate()
+                .for_each(|(t, (b, c))| (*b, *c) = leaf(t));
         }
         for level in &self.levels {
             let (lo, hi) = (level.start as usize, level.end as usize);
@@ -39,7 +50,10 @@ impl Bvh {
             };
             let (rb, rc) = (&mut rest_b[..hi - lo], &mut rest_c[..hi - lo]);
             if hi - lo >= PAR_MIN {
-                rb.par_iter_mut().zip(rc.par_iter_mut()).enumerate().for_each(fit);
+                rb.par_iter_mut()
+                    .zip(rc.par_iter_mut())
+                    .enumerate()
+                    .for_each(fit);
             } else {
                 rb.iter_mut().zip(rc.iter_mut()).enumerate().for_each(fit);
             }

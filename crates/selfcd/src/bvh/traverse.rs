@@ -11,7 +11,10 @@
 //! results and counters, and the join order is fixed, so the output is the
 //! same for any number of threads.
 
-use super::contour::{count_common, have_common, merge_contours, star_contour};
+use super::contour::{
+    count_common, have_common, loops_touch_only_at_shared_vertex, merge_contours, project_contour,
+    simple_ccw_loop, star_about, Plane, Seg,
+};
 use super::Bvh;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -47,7 +50,13 @@ pub fn self_traverse<V: LeafVisitor>(
     opts: TraverseOptions,
     visitor: &V,
 ) -> (Vec<V::Item>, Counters) {
-    let ctx = Ctx { bvh, mesh, positions, opts, visitor };
+    let ctx = Ctx {
+        bvh,
+        mesh,
+        positions,
+        opts,
+        visitor,
+    };
     // Spawn parallel tasks only where there is enough work to share.
     let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
     let acc = ctx.self_task(bvh.root(), par_depth);
@@ -66,11 +75,19 @@ struct Acc<T> {
     items: Vec<T>,
     counters: Counters,
     scratch: Vec<u32>,
+    segs: Vec<Seg>,
+    segs_b: Vec<Seg>,
 }
 
 impl<T> Acc<T> {
     fn new() -> Self {
-        Acc { items: Vec::new(), counters: Counters::default(), scratch: Vec::new() }
+        Acc {
+            items: Vec::new(),
+            counters: Counters::default(),
+            scratch: Vec::new(),
+            segs: Vec::new(),
+            segs_b: Vec::new(),
+        }
     }
 
     fn join(mut self, o: Acc<T>) -> Self {
@@ -95,7 +112,12 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         }
         let [l, r] = self.bvh.children_of(n);
         let ((x, y), z) = rayon::join(
-            || rayon::join(|| self.self_task(l, depth - 1), || self.self_task(r, depth - 1)),
+            || {
+                rayon::join(
+                    || self.self_task(l, depth - 1),
+                    || self.self_task(r, depth - 1),
+                )
+            },
             || self.pair_task(l, r, depth - 1),
         );
         acc.join(x).join(y).join(z)
@@ -110,7 +132,10 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         match self.pair_step(a, b, &mut acc) {
             None => acc,
             Some((keep, [x, y])) => {
-                let (p, q) = rayon::join(|| self.pair_task(keep, x, depth - 1), || self.pair_task(keep, y, depth - 1));
+                let (p, q) = rayon::join(
+                    || self.pair_task(keep, x, depth - 1),
+                    || self.pair_task(keep, y, depth - 1),
+                );
                 acc.join(p).join(q)
             }
         }
@@ -152,14 +177,19 @@ impl<V: LeafVisitor> Ctx<'_, V> {
                 }
             }
             acc.counters.primitive_tests += 1;
-            self.visitor.visit(a.min(b), a.max(b), adjacent, &mut acc.items);
+            self.visitor
+                .visit(a.min(b), a.max(b), adjacent, &mut acc.items);
             return None;
         }
         if self.pair_culled(a, b, acc) {
             return None;
         }
         let split_b = la || (!lb && bb.surface_area() > ba.surface_area());
-        Some(if split_b { (a, bvh.children_of(b)) } else { (b, bvh.children_of(a)) })
+        Some(if split_b {
+            (a, bvh.children_of(b))
+        } else {
+            (b, bvh.children_of(a))
+        })
     }
 
     fn self_culled(&self, n: u32, acc: &mut Acc<V::Item>) -> bool {
@@ -171,9 +201,10 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         if self.opts.contour {
             acc.counters.contour_tests += 1;
             let p = &bvh.patches;
-            let ok = p.eligible[n as usize]
-                && p.euler[n as usize] == 1
-                && star_contour(self.mesh, self.positions, p.contour_of(n), cone.axis);
+            let ok = p.eligible[n as usize] && p.euler[n as usize] == 1 && {
+                let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
+                self.disk_is_height_field(p.contour_of(n), &plane, [0.0; 2], &mut acc.segs)
+            };
             if !ok {
                 acc.counters.contour_fails += 1;
                 return false;
@@ -181,6 +212,19 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         }
         acc.counters.self_culls += 1;
         true
+    }
+
+    /// The projected contour of a disk-like patch is one simple counter-clockwise
+    /// loop: the star test about `center` first, the exact loop test if that fails.
+    fn disk_is_height_field(
+        &self,
+        contour: &[u32],
+        plane: &Plane,
+        center: [f64; 2],
+        segs: &mut Vec<Seg>,
+    ) -> bool {
+        project_contour(self.mesh, self.positions, contour, plane, segs);
+        star_about(segs, center) || simple_ccw_loop(segs)
     }
 
     fn pair_culled(&self, a: u32, b: u32, acc: &mut Acc<V::Item>) -> bool {
@@ -195,18 +239,37 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         }
         if self.opts.contour {
             acc.counters.contour_tests += 1;
-            let ok = p.eligible[a as usize] && p.eligible[b as usize] && {
-                let info = merge_contours(p.contour_of(a), p.contour_of(b), &mut acc.scratch);
-                let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
-                let euler = p.euler[a as usize] + p.euler[b as usize] - shared_v + info.shared_edges as i32;
-                !info.conflict && euler == 1 && star_contour(self.mesh, self.positions, &acc.scratch, merged.axis)
-            };
-            if !ok {
+            if !(p.eligible[a as usize]
+                && p.eligible[b as usize]
+                && self.union_is_height_field(a, b, merged.axis, acc))
+            {
                 acc.counters.contour_fails += 1;
                 return false;
             }
         }
         acc.counters.pair_culls += 1;
         true
+    }
+
+    /// Is the union of adjacent disjoint patches a and b a height field along
+    /// `axis`? Glued along edges: its own contour must be one simple loop.
+    /// Pinched at one vertex: each loop simple, touching only at that vertex.
+    fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, acc: &mut Acc<V::Item>) -> bool {
+        let (bvh, p) = (self.bvh, &self.bvh.patches);
+        let info = merge_contours(p.contour_of(a), p.contour_of(b), &mut acc.scratch);
+        let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
+        let euler = p.euler[a as usize] + p.euler[b as usize] - shared_v + info.shared_edges as i32;
+        if info.conflict || euler != 1 {
+            return false;
+        }
+        let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
+        let plane = Plane::new(axis, box_a.union(box_b).center());
+        if info.shared_edges > 0 {
+            return self.disk_is_height_field(&acc.scratch, &plane, [0.0; 2], &mut acc.segs);
+        }
+        let (ca, cb) = (plane.project(box_a.center()), plane.project(box_b.center()));
+        self.disk_is_height_field(p.contour_of(a), &plane, ca, &mut acc.segs)
+            && self.disk_is_height_field(p.contour_of(b), &plane, cb, &mut acc.segs_b)
+            && loops_touch_only_at_shared_vertex(&acc.segs, &acc.segs_b)
     }
 }
