@@ -9,8 +9,14 @@ pub enum Error {
     #[error("empty mesh: {0}")]
     EmptyMesh(&'static str),
     /// A triangle refers to a vertex that does not exist.
-    #[error("triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices")]
-    IndexOutOfRange { triangle: usize, index: u64, vertex_count: usize },
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices"
+    )]
+    IndexOutOfRange {
+        triangle: usize,
+        index: u64,
+        vertex_count: usize,
+    },
     /// A coordinate is NaN or infinite.
     #[error("vertex {vertex} has a non-finite coordinate ({value})")]
     NonFinite { vertex: usize, value: f64 },

@@ -82,13 +82,23 @@ impl Topology {
         }
         let edge_tris = Csr::from_pairs(
             edges.len(),
-            tri_edges.iter().enumerate().flat_map(|(t, e)| e.iter().map(move |&e| (e, t as u32))),
+            tri_edges
+                .iter()
+                .enumerate()
+                .flat_map(|(t, e)| e.iter().map(move |&e| (e, t as u32))),
         );
         let vertex_tris = Csr::from_pairs(
             n_vertices,
-            tris.iter().enumerate().flat_map(|(t, v)| v.iter().map(move |&v| (v, t as u32))),
+            tris.iter()
+                .enumerate()
+                .flat_map(|(t, v)| v.iter().map(move |&v| (v, t as u32))),
         );
-        Topology { edges, tri_edges, edge_tris, vertex_tris }
+        Topology {
+            edges,
+            tri_edges,
+            edge_tris,
+            vertex_tris,
+        }
     }
 
     /// True when edge `e` has exactly two triangles (an interior edge of a manifold).
@@ -127,10 +137,17 @@ impl Mesh {
         let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(triangles.len());
         for (i, t) in triangles.iter().enumerate() {
             if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
-                return Err(Error::IndexOutOfRange { triangle: i, index: bad as u64, vertex_count: n });
+                return Err(Error::IndexOutOfRange {
+                    triangle: i,
+                    index: bad as u64,
+                    vertex_count: n,
+                });
             }
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                return Err(Error::RepeatedVertex { triangle: i, indices: *t });
+                return Err(Error::RepeatedVertex {
+                    triangle: i,
+                    indices: *t,
+                });
             }
             let mut key = *t;
             key.sort_unstable();
@@ -138,7 +155,11 @@ impl Mesh {
                 return Err(Error::DuplicateTriangle { first, second: i });
             }
             seen.insert(key, i);
-            if is_degenerate(rest[t[0] as usize], rest[t[1] as usize], rest[t[2] as usize]) {
+            if is_degenerate(
+                rest[t[0] as usize],
+                rest[t[1] as usize],
+                rest[t[2] as usize],
+            ) {
                 return Err(Error::DegenerateTriangle { triangle: i });
             }
         }
@@ -149,7 +170,12 @@ impl Mesh {
             .map(|e| (rest[e[0] as usize] - rest[e[1] as usize]).length())
             .sum::<f64>()
             / topo.edges.len() as f64;
-        Ok(Mesh { rest, tris: triangles, topo, mean_edge })
+        Ok(Mesh {
+            rest,
+            tris: triangles,
+            topo,
+            mean_edge,
+        })
     }
 
     /// Rest positions.
@@ -185,7 +211,10 @@ impl Mesh {
     /// Checks that `positions` fit this mesh: right length, all finite.
     pub fn check_positions(&self, positions: &[DVec3]) -> Result<()> {
         if positions.len() != self.rest.len() {
-            return Err(Error::PositionsLength { expected: self.rest.len(), got: positions.len() });
+            return Err(Error::PositionsLength {
+                expected: self.rest.len(),
+                got: positions.len(),
+            });
         }
         check_finite(positions)
     }
@@ -194,7 +223,11 @@ impl Mesh {
     #[inline]
     pub fn corners(&self, positions: &[DVec3], t: usize) -> [DVec3; 3] {
         let [a, b, c] = self.tris[t];
-        [positions[a as usize], positions[b as usize], positions[c as usize]]
+        [
+            positions[a as usize],
+            positions[b as usize],
+            positions[c as usize],
+        ]
     }
 
     /// True when triangles `a` and `b` share at least one vertex.
@@ -219,7 +252,10 @@ mod tests {
     use super::*;
 
     fn quad() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-        (vec![[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]], vec![[0, 1, 2], [0, 2, 3]])
+        (
+            vec![[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
     }
 
     #[test]
@@ -237,20 +273,44 @@ mod tests {
     #[test]
     fn bad_inputs_are_named() {
         let (v, _) = quad();
-        assert!(matches!(Mesh::new(vec![], vec![[0, 1, 2]]), Err(Error::EmptyMesh(_))));
-        assert!(matches!(Mesh::new(v.clone(), vec![]), Err(Error::EmptyMesh(_))));
-        assert!(matches!(Mesh::new(v.clone(), vec![[0, 1, 9]]), Err(Error::IndexOutOfRange { index: 9, .. })));
-        assert!(matches!(Mesh::new(v.clone(), vec![[0, 1, 1]]), Err(Error::RepeatedVertex { .. })));
+        assert!(matches!(
+            Mesh::new(vec![], vec![[0, 1, 2]]),
+            Err(Error::EmptyMesh(_))
+        ));
+        assert!(matches!(
+            Mesh::new(v.clone(), vec![]),
+            Err(Error::EmptyMesh(_))
+        ));
+        assert!(matches!(
+            Mesh::new(v.clone(), vec![[0, 1, 9]]),
+            Err(Error::IndexOutOfRange { index: 9, .. })
+        ));
+        assert!(matches!(
+            Mesh::new(v.clone(), vec![[0, 1, 1]]),
+            Err(Error::RepeatedVertex { .. })
+        ));
         assert!(matches!(
             Mesh::new(v.clone(), vec![[0, 1, 2], [2, 0, 1]]),
-            Err(Error::DuplicateTriangle { first: 0, second: 1 })
+            Err(Error::DuplicateTriangle {
+                first: 0,
+                second: 1
+            })
         ));
         let mut nan = v.clone();
         nan[2][1] = f64::NAN;
-        assert!(matches!(Mesh::new(nan, vec![[0, 1, 2]]), Err(Error::NonFinite { vertex: 2, .. })));
+        assert!(matches!(
+            Mesh::new(nan, vec![[0, 1, 2]]),
+            Err(Error::NonFinite { vertex: 2, .. })
+        ));
         let line = vec![[0., 0., 0.], [1., 1., 1.], [2., 2., 2.]];
-        assert!(matches!(Mesh::new(line, vec![[0, 1, 2]]), Err(Error::DegenerateTriangle { triangle: 0 })));
+        assert!(matches!(
+            Mesh::new(line, vec![[0, 1, 2]]),
+            Err(Error::DegenerateTriangle { triangle: 0 })
+        ));
         let m = Mesh::new(v, vec![[0, 1, 2]]).unwrap();
-        assert!(matches!(m.check_positions(&[DVec3::ZERO]), Err(Error::PositionsLength { .. })));
+        assert!(matches!(
+            m.check_positions(&[DVec3::ZERO]),
+            Err(Error::PositionsLength { .. })
+        ));
     }
 }

@@ -3,10 +3,10 @@
 //! `bvh-cones` (no contour test) may miss contacts: its misses are counted and
 //! printed, and it must never report a contact that is not there.
 
+use glam::{DQuat, DVec3};
 use selfcd::detect::compare::diff_sorted;
 use selfcd::scene::{grid, rigid, scale, Deformation, SplitMix};
-use selfcd::{new_detector, Detection, DetectorOptions, Method, Mesh};
-use glam::{DQuat, DVec3};
+use selfcd::{new_detector, Detection, DetectorOptions, Mesh, Method};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -18,7 +18,11 @@ fn irregular(n: usize, seed: u64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     for j in 0..n {
         for i in 0..n {
             let interior = i > 0 && j > 0 && i < n - 1 && j < n - 1;
-            let (dx, dy) = if interior { (0.6 * h * (rng.unit() - 0.5), 0.6 * h * (rng.unit() - 0.5)) } else { (0.0, 0.0) };
+            let (dx, dy) = if interior {
+                (0.6 * h * (rng.unit() - 0.5), 0.6 * h * (rng.unit() - 0.5))
+            } else {
+                (0.0, 0.0)
+            };
             v.push([i as f64 * h + dx, j as f64 * h + dy, 0.0]);
         }
     }
@@ -41,22 +45,93 @@ fn shapes() -> Vec<(&'static str, Deformation)> {
     use Deformation::*;
     vec![
         ("flat", Flat),
-        ("fold-apart", Fold { angle: PI, radius: 0.03 }),
-        ("fold-through", Fold { angle: 1.08 * PI, radius: 0.03 }),
-        ("fold-half-way", Fold { angle: 0.6 * PI, radius: 0.05 }),
-        ("zfold", ZFold { layers: 4, gap: 0.02 }),
-        ("crumple-gentle", Crumple { amplitude: 0.03, wavelength: 0.5, seed: 1 }),
-        ("crumple-strong", Crumple { amplitude: 0.3, wavelength: 0.4, seed: 2 }),
-        ("crumple-wild", Crumple { amplitude: 0.6, wavelength: 0.3, seed: 3 }),
+        (
+            "fold-apart",
+            Fold {
+                angle: PI,
+                radius: 0.03,
+            },
+        ),
+        (
+            "fold-through",
+            Fold {
+                angle: 1.08 * PI,
+                radius: 0.03,
+            },
+        ),
+        (
+            "fold-half-way",
+            Fold {
+                angle: 0.6 * PI,
+                radius: 0.05,
+            },
+        ),
+        (
+            "zfold",
+            ZFold {
+                layers: 4,
+                gap: 0.02,
+            },
+        ),
+        (
+            "crumple-gentle",
+            Crumple {
+                amplitude: 0.03,
+                wavelength: 0.5,
+                seed: 1,
+            },
+        ),
+        (
+            "crumple-strong",
+            Crumple {
+                amplitude: 0.3,
+                wavelength: 0.4,
+                seed: 2,
+            },
+        ),
+        (
+            "crumple-wild",
+            Crumple {
+                amplitude: 0.6,
+                wavelength: 0.3,
+                seed: 3,
+            },
+        ),
         ("twist", Twist { turns: 1.5 }),
-        ("roll", Roll { turns: 2.0, gap: 0.01 }),
-        ("roll-tight", Roll { turns: 3.0, gap: 0.0 }),
-        ("noise", Noise { amplitude: 0.05, seed: 4 }),
+        (
+            "roll",
+            Roll {
+                turns: 2.0,
+                gap: 0.01,
+            },
+        ),
+        (
+            "roll-tight",
+            Roll {
+                turns: 3.0,
+                gap: 0.0,
+            },
+        ),
+        (
+            "noise",
+            Noise {
+                amplitude: 0.05,
+                seed: 4,
+            },
+        ),
     ]
 }
 
 fn detect(mesh: &Arc<Mesh>, method: Method, p: &[DVec3], thickness: f64) -> Detection {
-    let mut d = new_detector(mesh.clone(), method, &DetectorOptions { thickness, ..Default::default() }).unwrap();
+    let mut d = new_detector(
+        mesh.clone(),
+        method,
+        &DetectorOptions {
+            thickness,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     d.detect(p).unwrap()
 }
 
@@ -70,7 +145,10 @@ fn check(name: &str, mesh: &Arc<Mesh>, p: &[DVec3]) -> (usize, u64) {
     }
     let paper = detect(mesh, Method::BvhCones, p, 0.0).pairs;
     let (missed, spurious) = diff_sorted(&want, &paper);
-    assert_eq!(spurious, 0, "bvh-cones reported a contact that is not there on {name}");
+    assert_eq!(
+        spurious, 0,
+        "bvh-cones reported a contact that is not there on {name}"
+    );
     (want.len(), missed)
 }
 
@@ -82,7 +160,10 @@ fn meshes() -> Vec<(String, Arc<Mesh>)> {
     }
     for seed in [7, 8] {
         let (v, f) = irregular(17, seed);
-        out.push((format!("irregular{seed}"), Arc::new(Mesh::new(v, f).unwrap())));
+        out.push((
+            format!("irregular{seed}"),
+            Arc::new(Mesh::new(v, f).unwrap()),
+        ));
     }
     out
 }
@@ -105,14 +186,22 @@ fn all_detectors_match_brute_on_varied_deformations() {
         }
     }
     println!("bvh-cones missed {total_missed} of {total_contacts} contacts over all cases");
-    assert!(intersecting_cases >= 10, "the deformations should produce intersections ({intersecting_cases})");
+    assert!(
+        intersecting_cases >= 10,
+        "the deformations should produce intersections ({intersecting_cases})"
+    );
 }
 
 #[test]
 fn rigid_motions_and_scales_do_not_change_the_answer() {
     let (v, f) = grid(15, 1.0);
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let base = Deformation::Crumple { amplitude: 0.35, wavelength: 0.4, seed: 11 }.apply(mesh.rest());
+    let base = Deformation::Crumple {
+        amplitude: 0.35,
+        wavelength: 0.4,
+        seed: 11,
+    }
+    .apply(mesh.rest());
     let want = detect(&mesh, Method::Brute, &base, 0.0).pairs;
     assert!(!want.is_empty());
     let mut rng = SplitMix::new(5);
@@ -122,12 +211,21 @@ fn rigid_motions_and_scales_do_not_change_the_answer() {
         check(&format!("rigid{k}"), &mesh, &moved);
     }
     for s in [1e-3, 1e3] {
-        let scaled_mesh = Arc::new(Mesh::new(scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(), mesh.triangles().to_vec()).unwrap());
+        let scaled_mesh = Arc::new(
+            Mesh::new(
+                scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
+                mesh.triangles().to_vec(),
+            )
+            .unwrap(),
+        );
         let p = scale(&base, s);
         check(&format!("scale{s}"), &scaled_mesh, &p);
         // Scaling by a power of two is exact, so the contacts are the same ones.
         let p2 = scale(&base, if s < 1.0 { 1.0 / 1024.0 } else { 1024.0 });
-        assert_eq!(detect(&scaled_mesh, Method::BvhConesContour, &p2, 0.0).pairs, want);
+        assert_eq!(
+            detect(&scaled_mesh, Method::BvhConesContour, &p2, 0.0).pairs,
+            want
+        );
     }
 }
 
@@ -137,7 +235,17 @@ fn exact_touching_on_integer_coordinates() {
     // exactly on the other half (coplanar overlap, touching edges and vertices).
     let (v, f) = grid(9, 8.0);
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let folded: Vec<DVec3> = mesh.rest().iter().map(|r| if r.x > 4.0 { DVec3::new(8.0 - r.x, r.y, 0.0) } else { *r }).collect();
+    let folded: Vec<DVec3> = mesh
+        .rest()
+        .iter()
+        .map(|r| {
+            if r.x > 4.0 {
+                DVec3::new(8.0 - r.x, r.y, 0.0)
+            } else {
+                *r
+            }
+        })
+        .collect();
     let (n, _) = check("flat-fold", &mesh, &folded);
     assert!(n > 0);
     // Lift the flap by one unit, then pull one vertex down to touch the lower half at a point.
@@ -147,7 +255,11 @@ fn exact_touching_on_integer_coordinates() {
         .map(|(p, r)| if r.x > 4.0 { *p + DVec3::Z } else { *p })
         .collect();
     assert_eq!(check("lifted", &mesh, &lifted).0, 0);
-    let tip = mesh.rest().iter().position(|r| r.x == 6.0 && r.y == 4.0).unwrap();
+    let tip = mesh
+        .rest()
+        .iter()
+        .position(|r| r.x == 6.0 && r.y == 4.0)
+        .unwrap();
     lifted[tip].z = 0.0; // lands at (2, 4, 0): a vertex of the lower half
     let (n, _) = check("vertex-touch", &mesh, &lifted);
     assert!(n > 0, "touching at a vertex counts");
@@ -162,10 +274,23 @@ fn proximity_matches_brute() {
             let want = detect(&mesh, Method::Brute, &p, d).proximity;
             let got = detect(&mesh, Method::BvhConesContour, &p, d).proximity;
             let keys = |c: &selfcd::detect::ProximityContacts| {
-                (c.vertex_triangle.iter().map(|x| (x.vertex, x.triangle)).collect::<Vec<_>>(), c.edge_edge.iter().map(|x| x.edges).collect::<Vec<_>>())
+                (
+                    c.vertex_triangle
+                        .iter()
+                        .map(|x| (x.vertex, x.triangle))
+                        .collect::<Vec<_>>(),
+                    c.edge_edge.iter().map(|x| x.edges).collect::<Vec<_>>(),
+                )
             };
             let (kw, kg) = (keys(&want), keys(&got));
-            assert!(kw == kg, "proximity differs on {mname}/{sname}: brute {} vt {} ee, bvh {} vt {} ee", kw.0.len(), kw.1.len(), kg.0.len(), kg.1.len());
+            assert!(
+                kw == kg,
+                "proximity differs on {mname}/{sname}: brute {} vt {} ee, bvh {} vt {} ee",
+                kw.0.len(),
+                kw.1.len(),
+                kg.0.len(),
+                kg.1.len()
+            );
             assert!(got == want, "proximity distances differ on {mname}/{sname}");
         }
     }
@@ -176,14 +301,27 @@ fn same_contacts_for_any_thread_count() {
     // Large enough (5000 triangles) that the traversal runs in parallel tasks.
     let (v, f) = grid(51, 1.0);
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let p = Deformation::Crumple { amplitude: 0.4, wavelength: 0.3, seed: 9 }.apply(mesh.rest());
+    let p = Deformation::Crumple {
+        amplitude: 0.4,
+        wavelength: 0.3,
+        seed: 9,
+    }
+    .apply(mesh.rest());
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut d = Vec::new();
             for m in [Method::Bvh, Method::BvhCones, Method::BvhConesContour] {
                 let det = detect(&mesh, m, &p, 0.004);
-                d.push((det.pairs, det.proximity, det.stats.primitive_tests, det.stats.node_pairs));
+                d.push((
+                    det.pairs,
+                    det.proximity,
+                    det.stats.primitive_tests,
+                    det.stats.node_pairs,
+                ));
             }
             d
         })
@@ -200,7 +338,11 @@ fn cones_cull_a_flat_cloth_completely() {
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
     let flat = mesh.rest().to_vec();
     let s = detect(&mesh, Method::BvhConesContour, &flat, 0.0).stats;
-    assert_eq!((s.primitive_tests, s.self_culls, s.node_pairs), (0, 1, 0), "{s:?}");
+    assert_eq!(
+        (s.primitive_tests, s.self_culls, s.node_pairs),
+        (0, 1, 0),
+        "{s:?}"
+    );
     let boxes_only = detect(&mesh, Method::Bvh, &flat, 0.0).stats;
     assert!(boxes_only.adjacent_skips > 3000, "{boxes_only:?}");
 }
@@ -216,5 +358,13 @@ fn bad_positions_are_errors_not_panics() {
         p[4].y = f64::INFINITY;
         assert!(d.detect(&p).is_err());
     }
-    assert!(new_detector(mesh, Method::Bvh, &DetectorOptions { thickness: f64::NAN, ..Default::default() }).is_err());
+    assert!(new_detector(
+        mesh,
+        Method::Bvh,
+        &DetectorOptions {
+            thickness: f64::NAN,
+            ..Default::default()
+        }
+    )
+    .is_err());
 }

@@ -28,9 +28,16 @@ impl BruteDetector {
 /// Runs `visitor` on every pair i < j whose boxes are within `gap`, skipping
 /// pairs sharing a vertex when the visitor says so. Returns items in (i, j) order
 /// and the number of pairs considered.
-fn all_pairs<V: LeafVisitor>(mesh: &Mesh, positions: &[DVec3], gap: f64, visitor: &V) -> (Vec<V::Item>, u64, u64) {
+fn all_pairs<V: LeafVisitor>(
+    mesh: &Mesh,
+    positions: &[DVec3],
+    gap: f64,
+    visitor: &V,
+) -> (Vec<V::Item>, u64, u64) {
     let n = mesh.n_triangles();
-    let boxes: Vec<Aabb> = (0..n).map(|t| Aabb::from_points(&mesh.corners(positions, t))).collect();
+    let boxes: Vec<Aabb> = (0..n)
+        .map(|t| Aabb::from_points(&mesh.corners(positions, t)))
+        .collect();
     let per_row: Vec<(Vec<V::Item>, u64, u64)> = (0..n)
         .into_par_iter()
         .map(|i| {
@@ -45,7 +52,8 @@ fn all_pairs<V: LeafVisitor>(mesh: &Mesh, positions: &[DVec3], gap: f64, visitor
                 }
                 tests += 1;
                 let (a, b) = (&boxes[i], &boxes[j]);
-                let apart = (a.min - b.max).max_element() > gap || (b.min - a.max).max_element() > gap;
+                let apart =
+                    (a.min - b.max).max_element() > gap || (b.min - a.max).max_element() > gap;
                 if !apart {
                     visitor.visit(i as u32, j as u32, adj, &mut out);
                 }
@@ -75,10 +83,18 @@ impl Detector for BruteDetector {
         let mesh = &*self.mesh;
         mesh.check_positions(positions)?;
         let t0 = Instant::now();
-        let (pairs, tests, adjacent) = all_pairs(mesh, positions, 0.0, &Intersect { mesh, positions });
-        let mut det = Detection { pairs, ..Default::default() };
+        let (pairs, tests, adjacent) =
+            all_pairs(mesh, positions, 0.0, &Intersect { mesh, positions });
+        let mut det = Detection {
+            pairs,
+            ..Default::default()
+        };
         if self.thickness > 0.0 {
-            let near = Proximity { mesh, positions, thickness: self.thickness };
+            let near = Proximity {
+                mesh,
+                positions,
+                thickness: self.thickness,
+            };
             det.proximity = collect_proximity(all_pairs(mesh, positions, self.thickness, &near).0);
         }
         let s = &mut det.stats;
@@ -86,7 +102,8 @@ impl Detector for BruteDetector {
         s.primitive_tests = tests;
         s.adjacent_skips = adjacent;
         s.contacts = det.pairs.len() as u64;
-        s.proximity_contacts = (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
+        s.proximity_contacts =
+            (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
         Ok(det)
     }
 }

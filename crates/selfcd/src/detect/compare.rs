@@ -32,7 +32,11 @@ pub struct MethodRun {
 /// Exact contacts of every frame (the reference), computed with the conservative
 /// BVH, which the tests check equal to brute force.
 pub fn reference_pairs(mesh: &Arc<Mesh>, frames: &[Vec<DVec3>]) -> Result<Vec<Vec<[u32; 2]>>> {
-    let mut det = new_detector(mesh.clone(), Method::BvhConesContour, &DetectorOptions::default())?;
+    let mut det = new_detector(
+        mesh.clone(),
+        Method::BvhConesContour,
+        &DetectorOptions::default(),
+    )?;
     frames.iter().map(|f| Ok(det.detect(f)?.pairs)).collect()
 }
 
@@ -55,11 +59,18 @@ pub fn compare_methods(
         for (f, want) in frames.iter().zip(&reference) {
             let got = det.detect(f)?;
             let (missed, spurious) = diff_sorted(want, &got.pairs);
-            records.push(FrameRecord { stats: got.stats, missed, spurious });
+            records.push(FrameRecord {
+                stats: got.stats,
+                missed,
+                spurious,
+            });
             done += 1;
             progress(done);
         }
-        runs.push(MethodRun { method, frames: records });
+        runs.push(MethodRun {
+            method,
+            frames: records,
+        });
     }
     Ok(runs)
 }
@@ -88,7 +99,10 @@ mod tests {
 
     #[test]
     fn diff_counts_both_sides() {
-        assert_eq!(diff_sorted(&[[0, 1], [0, 2], [3, 4]], &[[0, 2], [5, 6]]), (2, 1));
+        assert_eq!(
+            diff_sorted(&[[0, 1], [0, 2], [3, 4]], &[[0, 2], [5, 6]]),
+            (2, 1)
+        );
         assert_eq!(diff_sorted(&[], &[]), (0, 0));
     }
 }

@@ -22,7 +22,12 @@ impl BvhDetector {
     /// Builds the hierarchy of `mesh` for `method` (not `brute`).
     pub fn new(mesh: Arc<Mesh>, method: Method, thickness: f64) -> Self {
         let bvh = build(&mesh);
-        BvhDetector { mesh, bvh, method, thickness }
+        BvhDetector {
+            mesh,
+            bvh,
+            method,
+            thickness,
+        }
     }
 
     /// The hierarchy, as refitted by the last call.
@@ -48,18 +53,37 @@ impl BvhDetector {
             contour: self.method == Method::BvhConesContour,
             gap: 0.0,
         };
-        let (mut pairs, counters) = self_traverse(&self.bvh, mesh, positions, opts, &Intersect { mesh, positions });
+        let (mut pairs, counters) = self_traverse(
+            &self.bvh,
+            mesh,
+            positions,
+            opts,
+            &Intersect { mesh, positions },
+        );
         pairs.sort_unstable();
-        let mut det = Detection { pairs, ..Default::default() };
+        let mut det = Detection {
+            pairs,
+            ..Default::default()
+        };
         if self.thickness > 0.0 {
-            let near = Proximity { mesh, positions, thickness: self.thickness };
-            let opts = TraverseOptions { cones: false, contour: false, gap: self.thickness };
-            det.proximity = collect_proximity(self_traverse(&self.bvh, mesh, positions, opts, &near).0);
+            let near = Proximity {
+                mesh,
+                positions,
+                thickness: self.thickness,
+            };
+            let opts = TraverseOptions {
+                cones: false,
+                contour: false,
+                gap: self.thickness,
+            };
+            det.proximity =
+                collect_proximity(self_traverse(&self.bvh, mesh, positions, opts, &near).0);
         }
         let s = &mut det.stats;
         counters.write_to(s);
         s.contacts = det.pairs.len() as u64;
-        s.proximity_contacts = (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
+        s.proximity_contacts =
+            (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
         s.traverse_time = t0.elapsed().as_secs_f64();
         det
     }

@@ -93,7 +93,12 @@ impl Proximity<'_> {
         let [a, b, c] = self.mesh.corners(self.positions, t as usize);
         let (d2, bary) = point_triangle_distance2(self.positions[v as usize], a, b, c);
         if d2 < self.thickness * self.thickness {
-            out.push(Near::Vt(VertexTriangle { vertex: v, triangle: t, distance: d2.sqrt(), bary }));
+            out.push(Near::Vt(VertexTriangle {
+                vertex: v,
+                triangle: t,
+                distance: d2.sqrt(),
+                bary,
+            }));
         }
     }
 
@@ -108,7 +113,11 @@ impl Proximity<'_> {
         let p = |i: u32| self.positions[i as usize];
         let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
         if d2 < self.thickness * self.thickness {
-            out.push(Near::Ee(EdgeEdge { edges: [e0, e1], distance: d2.sqrt(), params: [s, t] }));
+            out.push(Near::Ee(EdgeEdge {
+                edges: [e0, e1],
+                distance: d2.sqrt(),
+                params: [s, t],
+            }));
         }
     }
 }
@@ -144,7 +153,8 @@ pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
             Near::Ee(x) => out.edge_edge.push(x),
         }
     }
-    out.vertex_triangle.sort_unstable_by_key(|x| (x.vertex, x.triangle));
+    out.vertex_triangle
+        .sort_unstable_by_key(|x| (x.vertex, x.triangle));
     out.vertex_triangle.dedup_by_key(|x| (x.vertex, x.triangle));
     out.edge_edge.sort_unstable_by_key(|x| x.edges);
     out.edge_edge.dedup_by_key(|x| x.edges);

@@ -13,18 +13,27 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box: the identity of `union`.
-    pub const EMPTY: Aabb = Aabb { min: DVec3::INFINITY, max: DVec3::NEG_INFINITY };
+    pub const EMPTY: Aabb = Aabb {
+        min: DVec3::INFINITY,
+        max: DVec3::NEG_INFINITY,
+    };
 
     /// Smallest box containing `points`. Exact: min and max are not rounded.
     #[inline]
     pub fn from_points(points: &[DVec3]) -> Aabb {
-        points.iter().fold(Aabb::EMPTY, |b, &p| Aabb { min: b.min.min(p), max: b.max.max(p) })
+        points.iter().fold(Aabb::EMPTY, |b, &p| Aabb {
+            min: b.min.min(p),
+            max: b.max.max(p),
+        })
     }
 
     /// Smallest box containing both.
     #[inline]
     pub fn union(&self, o: &Aabb) -> Aabb {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// True when the closed boxes share a point (touching counts).
@@ -36,7 +45,10 @@ impl Aabb {
     /// The box grown by `r` on every side.
     #[inline]
     pub fn inflate(&self, r: f64) -> Aabb {
-        Aabb { min: self.min - DVec3::splat(r), max: self.max + DVec3::splat(r) }
+        Aabb {
+            min: self.min - DVec3::splat(r),
+            max: self.max + DVec3::splat(r),
+        }
     }
 
     /// Surface area (2 (xy + yz + zx)); zero-thickness boxes still have area.

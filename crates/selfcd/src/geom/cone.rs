@@ -28,12 +28,18 @@ impl Angle {
 
     #[inline]
     fn add(self, o: Angle) -> Angle {
-        Angle { c: self.c * o.c - self.s * o.s, s: self.s * o.c + self.c * o.s }
+        Angle {
+            c: self.c * o.c - self.s * o.s,
+            s: self.s * o.c + self.c * o.s,
+        }
     }
 
     #[inline]
     fn sub(self, o: Angle) -> Angle {
-        Angle { c: self.c * o.c + self.s * o.s, s: self.s * o.c - self.c * o.s }
+        Angle {
+            c: self.c * o.c + self.s * o.s,
+            s: self.s * o.c - self.c * o.s,
+        }
     }
 
     /// Half of an angle in [0, PI]; accurate near 0 and near PI.
@@ -41,10 +47,16 @@ impl Angle {
     fn half(self) -> Angle {
         if self.c >= 0.0 {
             let c = (0.5 * (1.0 + self.c)).sqrt();
-            Angle { c, s: self.s / (2.0 * c) }
+            Angle {
+                c,
+                s: self.s / (2.0 * c),
+            }
         } else {
             let s = (0.5 * (1.0 - self.c)).sqrt();
-            Angle { c: self.s / (2.0 * s), s }
+            Angle {
+                c: self.s / (2.0 * s),
+                s,
+            }
         }
     }
 
@@ -63,13 +75,19 @@ impl Angle {
     /// Widened by a tiny angle `e` (first order, conservative for e << 1).
     #[inline]
     fn widen(self, e: f64) -> Angle {
-        Angle { c: self.c - self.s.abs() * e - e * e, s: self.s + self.c * e }
+        Angle {
+            c: self.c - self.s.abs() * e - e * e,
+            s: self.s + self.c * e,
+        }
     }
 
     /// Angle between unit vectors a and b, in [0, PI].
     #[inline]
     fn between(a: DVec3, b: DVec3) -> Angle {
-        Angle { c: a.dot(b), s: a.cross(b).length() }
+        Angle {
+            c: a.dot(b),
+            s: a.cross(b).length(),
+        }
     }
 }
 
@@ -84,7 +102,10 @@ pub struct NormalCone {
 
 impl NormalCone {
     /// The cone holding every direction.
-    pub const FULL: NormalCone = NormalCone { axis: DVec3::Z, half: Angle { c: -1.0, s: 0.0 } };
+    pub const FULL: NormalCone = NormalCone {
+        axis: DVec3::Z,
+        half: Angle { c: -1.0, s: 0.0 },
+    };
 
     /// The cone of triangle (a, b, c)'s normal, widened by the rounding error of
     /// the cross product so that it holds the exact normal. A degenerate
@@ -101,7 +122,10 @@ impl NormalCone {
         // |computed - exact| <= ~4 eps |e1||e2| per component: an angle of at
         // most asin(x) <= 1.06 x for x = 8 eps |e1||e2| / |n| <= 1/8.
         let err = 1.06 * 8.0 * f64::EPSILON * scale / len;
-        NormalCone { axis: n / len, half: Angle::ZERO.widen(err) }
+        NormalCone {
+            axis: n / len,
+            half: Angle::ZERO.widen(err),
+        }
     }
 
     /// A cone from an axis (normalised here) and a half-angle in radians.
@@ -109,7 +133,13 @@ impl NormalCone {
         if half_angle >= std::f64::consts::PI || axis.length_squared() == 0.0 {
             return NormalCone::FULL;
         }
-        NormalCone { axis: axis.normalize(), half: Angle { c: half_angle.cos(), s: half_angle.sin() } }
+        NormalCone {
+            axis: axis.normalize(),
+            half: Angle {
+                c: half_angle.cos(),
+                s: half_angle.sin(),
+            },
+        }
     }
 
     /// Half-angle in radians (for reports; the engine works with its cosine).
@@ -140,14 +170,22 @@ impl NormalCone {
         if !dh1.at_least_pi() && dh1.le(o.half) {
             return *o;
         }
-        let h = self.half.half().add(d.half()).add(o.half.half()).widen(MERGE_SLACK);
+        let h = self
+            .half
+            .half()
+            .add(d.half())
+            .add(o.half.half())
+            .widen(MERGE_SLACK);
         if h.at_least_pi() || d.s == 0.0 {
             return NormalCone::FULL;
         }
         let t = h.sub(self.half);
         // k x a = (b - a cos d) / sin d for k = unit(a x b).
         let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
-        NormalCone { axis: axis.normalize(), half: h }
+        NormalCone {
+            axis: axis.normalize(),
+            half: h,
+        }
     }
 }
 
@@ -159,7 +197,8 @@ mod tests {
 
     fn holds(outer: &NormalCone, inner: &NormalCone) -> bool {
         *outer == NormalCone::FULL
-            || outer.axis.dot(inner.axis).clamp(-1.0, 1.0).acos() + inner.half_angle() <= outer.half_angle() + 1e-12
+            || outer.axis.dot(inner.axis).clamp(-1.0, 1.0).acos() + inner.half_angle()
+                <= outer.half_angle() + 1e-12
     }
 
     #[test]
@@ -188,9 +227,14 @@ mod tests {
             let want = (a.half_angle() + d + b.half_angle()) / 2.0;
             let want = want.max(a.half_angle()).max(b.half_angle());
             if want < PI - 1e-6 && m.half.c > -1.0 {
-                let contained = d + b.half_angle() <= a.half_angle() || d + a.half_angle() <= b.half_angle();
+                let contained =
+                    d + b.half_angle() <= a.half_angle() || d + a.half_angle() <= b.half_angle();
                 if !contained {
-                    assert!((m.half_angle() - want).abs() < 1e-9, "{} vs {want}", m.half_angle());
+                    assert!(
+                        (m.half_angle() - want).abs() < 1e-9,
+                        "{} vs {want}",
+                        m.half_angle()
+                    );
                 }
             }
         }

@@ -51,12 +51,19 @@ fn closest_on_edges(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
     let on = |x: DVec3, y: DVec3| {
         let d = y - x;
         let l = d.length_squared();
-        if l > 0.0 { ((p - x).dot(d) / l).clamp(0.0, 1.0) } else { 0.0 }
+        if l > 0.0 {
+            ((p - x).dot(d) / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
     };
     let (s, t, u) = (on(a, b), on(b, c), on(c, a));
     let cands = [[1.0 - s, s, 0.0], [0.0, 1.0 - t, t], [u, 0.0, 1.0 - u]];
     let dist = |w: &[f64; 3]| (a * w[0] + b * w[1] + c * w[2] - p).length_squared();
-    cands.into_iter().min_by(|x, y| dist(x).total_cmp(&dist(y))).unwrap()
+    cands
+        .into_iter()
+        .min_by(|x, y| dist(x).total_cmp(&dist(y)))
+        .unwrap()
 }
 
 /// Squared distance from `p` to triangle (a, b, c), with the barycentric weights of the closest point.
@@ -85,7 +92,11 @@ pub fn segment_segment_distance2(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> 
         } else {
             let b = d1.dot(d2);
             let denom = a * e - b * b;
-            let s0 = if denom > 0.0 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let s0 = if denom > 0.0 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let t0 = (b * s0 + f) / e;
             if t0 < 0.0 {
                 t = 0.0;
@@ -120,10 +131,20 @@ mod tests {
 
     #[test]
     fn segment_segment_cases() {
-        let (d2, s, t) = segment_segment_distance2(DVec3::ZERO, DVec3::X, DVec3::new(0.5, -1.0, 1.0), DVec3::new(0.5, 1.0, 1.0));
+        let (d2, s, t) = segment_segment_distance2(
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::new(0.5, -1.0, 1.0),
+            DVec3::new(0.5, 1.0, 1.0),
+        );
         assert!((d2 - 1.0).abs() < 1e-12 && (s - 0.5).abs() < 1e-12 && (t - 0.5).abs() < 1e-12);
         // Parallel, overlapping.
-        let (d2, _, _) = segment_segment_distance2(DVec3::ZERO, DVec3::X, DVec3::new(0.5, 0.0, 2.0), DVec3::new(1.5, 0.0, 2.0));
+        let (d2, _, _) = segment_segment_distance2(
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::new(0.5, 0.0, 2.0),
+            DVec3::new(1.5, 0.0, 2.0),
+        );
         assert!((d2 - 4.0).abs() < 1e-12);
         // Degenerate.
         let (d2, _, _) = segment_segment_distance2(DVec3::ZERO, DVec3::ZERO, DVec3::Y, DVec3::Y);

@@ -11,7 +11,11 @@ use robust::{Coord, Coord3D};
 /// Positive when d lies below the plane through a, b, c seen counter-clockwise from above.
 #[inline]
 pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i8 {
-    let c3 = |p: DVec3| Coord3D { x: p.x, y: p.y, z: p.z };
+    let c3 = |p: DVec3| Coord3D {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+    };
     sign(robust::orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 
@@ -98,7 +102,11 @@ pub fn segments_intersect_2d(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64;
 
 /// Is `p` in the closed 2D triangle t (any orientation, t not degenerate)?
 pub fn point_in_triangle_2d(p: [f64; 2], t: [[f64; 2]; 3]) -> bool {
-    let o = [orient2d(t[0], t[1], p), orient2d(t[1], t[2], p), orient2d(t[2], t[0], p)];
+    let o = [
+        orient2d(t[0], t[1], p),
+        orient2d(t[1], t[2], p),
+        orient2d(t[2], t[0], p),
+    ];
     o.iter().all(|&s| s >= 0) || o.iter().all(|&s| s <= 0)
 }
 
@@ -116,18 +124,47 @@ mod tests {
         let c_up = [24.0, f64::from_bits(24.0f64.to_bits() + 1)];
         assert_eq!(orient2d(a, b, c_up), 1);
         let d = DVec3::new(0.5, 0.25, 1.0);
-        assert_eq!(orient3d(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO + d * 0.0), 0);
+        assert_eq!(
+            orient3d(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO + d * 0.0),
+            0
+        );
         assert!(is_degenerate(DVec3::ZERO, d, 3.0 * d));
         assert!(!is_degenerate(DVec3::ZERO, d, DVec3::X));
     }
 
     #[test]
     fn segments_touching_and_collinear() {
-        assert!(segments_intersect_2d([0., 0.], [1., 0.], [1., 0.], [2., 5.]));
-        assert!(segments_intersect_2d([0., 0.], [2., 0.], [1., 0.], [3., 0.]));
-        assert!(!segments_intersect_2d([0., 0.], [1., 0.], [2., 0.], [3., 0.]));
-        assert!(segments_intersect_2d([0., 0.], [0., 0.], [-1., -1.], [1., 1.]));
-        assert!(point_in_triangle_2d([0., 0.], [[0., 0.], [1., 0.], [0., 1.]]));
-        assert!(!point_in_triangle_2d([1., 1.], [[0., 0.], [1., 0.], [0., 1.]]));
+        assert!(segments_intersect_2d(
+            [0., 0.],
+            [1., 0.],
+            [1., 0.],
+            [2., 5.]
+        ));
+        assert!(segments_intersect_2d(
+            [0., 0.],
+            [2., 0.],
+            [1., 0.],
+            [3., 0.]
+        ));
+        assert!(!segments_intersect_2d(
+            [0., 0.],
+            [1., 0.],
+            [2., 0.],
+            [3., 0.]
+        ));
+        assert!(segments_intersect_2d(
+            [0., 0.],
+            [0., 0.],
+            [-1., -1.],
+            [1., 1.]
+        ));
+        assert!(point_in_triangle_2d(
+            [0., 0.],
+            [[0., 0.], [1., 0.], [0., 1.]]
+        ));
+        assert!(!point_in_triangle_2d(
+            [1., 1.],
+            [[0., 0.], [1., 0.], [0., 1.]]
+        ));
     }
 }

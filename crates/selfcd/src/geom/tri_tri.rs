@@ -17,7 +17,11 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     let da = is_degenerate(a[0], a[1], a[2]);
     let db = is_degenerate(b[0], b[1], b[2]);
     match (da, db) {
-        (true, true) => edges(a).iter().any(|ea| edges(b).iter().any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))),
+        (true, true) => edges(a).iter().any(|ea| {
+            edges(b)
+                .iter()
+                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
+        }),
         (true, false) => edges(a).iter().any(|e| segment_triangle(e[0], e[1], b)),
         (false, true) => edges(b).iter().any(|e| segment_triangle(e[0], e[1], a)),
         (false, false) => proper_triangles_intersect(a, b),
@@ -42,7 +46,8 @@ fn proper_triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
         let k = dominant_axis(a[0], a[1], a[2]);
         return triangles_intersect_2d(a.map(|p| project(p, k)), b.map(|p| project(p, k)));
     }
-    edges(a).iter().any(|e| segment_triangle(e[0], e[1], b)) || edges(b).iter().any(|e| segment_triangle(e[0], e[1], a))
+    edges(a).iter().any(|e| segment_triangle(e[0], e[1], b))
+        || edges(b).iter().any(|e| segment_triangle(e[0], e[1], a))
 }
 
 fn strictly_one_side(s: [i8; 3]) -> bool {
@@ -65,13 +70,18 @@ pub fn segment_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
     }
     // The segment crosses (or ends on) the plane at one point: the line through
     // it hits the closed triangle iff it passes on the same side of all three edges.
-    let s = [orient3d(p, q, t[0], t[1]), orient3d(p, q, t[1], t[2]), orient3d(p, q, t[2], t[0])];
+    let s = [
+        orient3d(p, q, t[0], t[1]),
+        orient3d(p, q, t[1], t[2]),
+        orient3d(p, q, t[2], t[0]),
+    ];
     s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0)
 }
 
 /// Closed 2D triangles (both non-degenerate) share a point.
 fn triangles_intersect_2d(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
-    (0..3).any(|i| (0..3).any(|j| segments_intersect_2d(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3])))
+    (0..3)
+        .any(|i| (0..3).any(|j| segments_intersect_2d(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3])))
         || point_in_triangle_2d(a[0], b)
         || point_in_triangle_2d(b[0], a)
 }
@@ -90,7 +100,11 @@ pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool
     } else {
         // All four points on one line (or coincident): drop the axis the line is
         // most nearly perpendicular to, which keeps the line one-to-one.
-        let d = if (p2 - p1).length_squared() >= (q2 - q1).length_squared() { p2 - p1 } else { q2 - q1 };
+        let d = if (p2 - p1).length_squared() >= (q2 - q1).length_squared() {
+            p2 - p1
+        } else {
+            q2 - q1
+        };
         let d = d.abs();
         if d.x <= d.y && d.x <= d.z {
             0
@@ -100,7 +114,12 @@ pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool
             2
         }
     };
-    segments_intersect_2d(project(p1, k), project(p2, k), project(q1, k), project(q2, k))
+    segments_intersect_2d(
+        project(p1, k),
+        project(p2, k),
+        project(q1, k),
+        project(q2, k),
+    )
 }
 
 #[cfg(test)]
