@@ -1,0 +1,82 @@
+"""Type stubs for the compiled extension `selfcd._core` (crates/selfcd-py)."""
+
+from typing import Any, Callable
+
+import numpy as np
+
+__version__: str
+
+def methods() -> list[str]:
+    """Names of every detection method the engine knows, in report order."""
+
+def non_conservative_methods() -> list[str]:
+    """Names of the methods that may miss contacts by design."""
+
+def sensor_options() -> list[str]:
+    """Names of the keyword options the `sensor-gated` method takes."""
+
+class Mesh:
+    """A validated triangle mesh: rest positions, faces, topology."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        """Validates an (n,3) float64 vertex array and an (m,3) int64 face array."""
+    @property
+    def vertices(self) -> np.ndarray:
+        """Rest positions, (n,3) float64."""
+    @property
+    def faces(self) -> np.ndarray:
+        """Faces, (m,3) int64."""
+    @property
+    def edges(self) -> np.ndarray:
+        """Unique edges, (e,2) int64, smaller vertex first."""
+    @property
+    def n_vertices(self) -> int:
+        """Number of vertices."""
+    @property
+    def n_faces(self) -> int:
+        """Number of faces."""
+    @property
+    def mean_edge_length(self) -> float:
+        """Mean rest edge length."""
+
+class Detector:
+    """One detection method on one mesh, keeping its state between calls."""
+
+    def __init__(self, mesh: Mesh, method: str, thickness: float = 0.0,
+                 options: dict[str, Any] | None = None) -> None:
+        """Builds the detector; `options` are the method's keyword options."""
+    def detect(self, positions: np.ndarray) -> np.ndarray:
+        """Intersecting face pairs at (n,3) float64 `positions`: (k,2) int64, sorted, i<j."""
+    def particles(self) -> np.ndarray:
+        """Current sensor particle positions, (k,3) float64 ((0,3) without a sensor)."""
+    @property
+    def method(self) -> str:
+        """The method's name."""
+    @property
+    def thickness(self) -> float:
+        """Proximity thickness."""
+    @property
+    def n_vertices(self) -> int:
+        """Vertices the detector expects."""
+    @property
+    def last_stats(self) -> dict[str, Any] | None:
+        """FrameStats of the last call, or None."""
+    @property
+    def last_proximity(self) -> dict[str, np.ndarray] | None:
+        """Proximity contacts of the last call, or None."""
+
+def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
+    """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
+
+def compare_methods(mesh: Mesh, frames: np.ndarray, methods: list[str] | None = None, thickness: float = 0.0,
+                    progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:
+    """Every method over the same (f,n,3) frames, misses counted against the exact reference."""
+
+def reference_pairs(mesh: Mesh, frames: np.ndarray) -> list[np.ndarray]:
+    """Exact intersecting face pairs of each frame."""
+
+def grid(n: int, size: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Square grid cloth of n x n vertices: (vertices, faces)."""
+
+def deform(rest: np.ndarray, shape: str, **params: float) -> np.ndarray:
+    """Positions of a flat rest shape put into an analytic shape."""

@@ -1,0 +1,120 @@
+"""The `selfcd` command line end to end, in child processes, on small inputs."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import selfcd
+from selfcd.io import save_obj
+
+
+def run(*args: str, cwd: Path | None = None, timeout: int = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "selfcd", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=timeout)
+
+
+def test_console_script_is_installed() -> None:
+    exe = shutil.which("selfcd")
+    assert exe, "pip install . should put the selfcd command on PATH"
+    out = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0
+    for sub in ("demo", "detect", "bench"):
+        assert sub in out.stdout
+
+
+@pytest.mark.parametrize("sub", ["demo", "detect", "bench"])
+def test_each_subcommand_has_help(sub: str) -> None:
+    out = run(sub, "--help")
+    assert out.returncode == 0 and "Usage:" in out.stdout
+
+
+@pytest.fixture(scope="module")
+def obj_files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("objs")
+    V, F = selfcd.scenes.grid(9)
+    shapes = {"flat": V, "folded": selfcd.scenes.deform(V, "fold", angle=np.pi, radius=0.05),
+              "through": selfcd.scenes.deform(V, "fold", angle=1.2 * np.pi, radius=0.05)}
+    paths = {}
+    for name, P in shapes.items():
+        paths[name] = d / f"{name}.obj"
+        save_obj(paths[name], P, F)
+    np.savez(d / "through.npz", V=shapes["through"], F=F)
+    paths["npz"] = d / "through.npz"
+    V2, F2 = selfcd.scenes.grid(5)
+    save_obj(d / "other.obj", V2, F2)
+    paths["other"] = d / "other.obj"
+    paths["expected"] = selfcd.self_intersections(shapes["through"], F)
+    return paths
+
+
+def test_detect_clean_mesh_exits_0(obj_files) -> None:
+    out = run("detect", str(obj_files["flat"]), str(obj_files["folded"]))
+    assert out.returncode == 0, out.stderr
+    assert "flat.obj: 0 intersecting" in out.stdout and "folded.obj: 0 intersecting" in out.stdout
+
+
+def test_detect_intersecting_mesh_exits_1_and_lists_pairs(obj_files) -> None:
+    out = run("detect", str(obj_files["flat"]), str(obj_files["through"]))
+    assert out.returncode == 1
+    n = len(obj_files["expected"])
+    assert n > 0 and f"through.obj: {n} intersecting" in out.stdout
+
+
+def test_detect_json_matches_the_api(obj_files) -> None:
+    out = run("detect", "--json", "--method", "bvh", str(obj_files["through"]), str(obj_files["npz"]))
+    assert out.returncode == 1
+    data = json.loads(out.stdout)
+    assert data["intersecting"] is True and data["method"] == "bvh"
+    for rec in data["files"]:
+        assert rec["pairs"] == obj_files["expected"].tolist()
+        assert rec["stats"]["contacts"] == len(obj_files["expected"])
+
+
+def test_detect_bad_inputs_exit_2(obj_files, tmp_path: Path) -> None:
+    out = run("detect", str(tmp_path / "missing.obj"))
+    assert out.returncode == 2 and "no such file" in out.stderr
+    out = run("detect", str(obj_files["flat"]), str(obj_files["other"]))
+    assert out.returncode == 2 and "faces differ" in out.stderr
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, X=np.zeros(3))
+    out = run("detect", str(bad))
+    assert out.returncode == 2 and "needs arrays V and F" in out.stderr
+    out = run("detect", "--method", "nope", str(obj_files["flat"]))
+    assert out.returncode == 2 and "nope" in out.stderr
+
+
+def test_demo_writes_report_and_summary(tmp_path: Path) -> None:
+    out = run("demo", "--frames", "6", "--out", str(tmp_path / "rep"))
+    assert out.returncode == 0, out.stderr
+    summary = json.loads((tmp_path / "rep" / "summary.json").read_text())
+    assert len(summary["scenes"]) == 3
+    for scene in summary["scenes"]:
+        assert scene["frames"] == 6
+        assert list(scene["methods"]) == selfcd.methods()
+        for name, m in scene["methods"].items():
+            assert m["frames"] == 6 and m["mean_time_ms"] >= 0 and m["spurious_contacts"] == 0
+            if name not in selfcd.non_conservative_methods():
+                assert m["missed_contacts"] == 0
+    html = (tmp_path / "rep" / "index.html").read_text()
+    assert "Plotly.newPlot" in html and 'id="summary"' in html
+    assert "<script src=" not in html and "<link " not in html, "the report must not load anything from the network"
+    for m in selfcd.methods():
+        assert m in out.stdout
+
+
+def test_bench_table_and_json(tmp_path: Path) -> None:
+    out = run("bench", "--sizes", "50,200", "--states", "flat,crumple", "--repeats", "1",
+              "--json", str(tmp_path / "b.json"))
+    assert out.returncode == 0, out.stderr
+    rows = json.loads((tmp_path / "b.json").read_text())
+    assert len(rows) == 2 * 2 * len(selfcd.methods())
+    assert {r["state"] for r in rows} == {"flat", "crumple"}
+    assert "median ms" in out.stdout
+    assert run("bench", "--states", "molten").returncode == 2
