@@ -29,7 +29,12 @@ impl SensorGatedDetector {
         sensor.set_margin(thickness);
         let particles = sensor.positions(mesh.rest());
         let bvh = BvhDetector::new(mesh, params.inner, thickness);
-        Ok(SensorGatedDetector { bvh, sensor, particles, refit_every_frame: params.refit_every_frame })
+        Ok(SensorGatedDetector {
+            bvh,
+            sensor,
+            particles,
+            refit_every_frame: params.refit_every_frame,
+        })
     }
 
     /// The sensor, as left by the last frame.
@@ -59,7 +64,11 @@ impl Detector for SensorGatedDetector {
 
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.bvh.mesh().check_positions(positions)?;
-        let mut refit = if self.refit_every_frame { self.bvh.refit(positions) } else { 0.0 };
+        let mut refit = if self.refit_every_frame {
+            self.bvh.refit(positions)
+        } else {
+            0.0
+        };
         let t0 = Instant::now();
         let relax = self.sensor.relax_checked(positions);
         let sensor_time = t0.elapsed().as_secs_f64();

@@ -16,45 +16,63 @@
 
 use super::odl::{original_distance, path_tangent};
 use super::particle::SurfacePoint;
+use super::tangent::TriMap;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
 /// Distances (in units of L) below this count as zero.
 const TINY: f64 = 1e-12;
 
-/// Where the particles are, in both shapes, and the length unit.
+/// One particle as seen in one update: its positions in both shapes (divided
+/// by L) and the deformation map of its triangle.
 #[derive(Debug, Clone, Copy)]
-pub struct Snapshot<'a> {
-    /// The mesh.
-    pub mesh: &'a Mesh,
-    /// Current vertex positions.
-    pub positions: &'a [DVec3],
-    /// The particles.
-    pub points: &'a [SurfacePoint],
-    /// Current particle positions.
-    pub current: &'a [DVec3],
-    /// Rest particle positions.
-    pub rest: &'a [DVec3],
-    /// Length unit L (mean rest edge length).
-    pub unit: f64,
+pub struct Local {
+    /// Current position / L.
+    pub current: DVec3,
+    /// Rest position / L.
+    pub rest: DVec3,
+    /// Deformation map of the particle's triangle.
+    pub map: TriMap,
+}
+
+impl Local {
+    /// The particle `p` at `positions`, lengths in units of `unit`.
+    #[inline]
+    pub fn new(mesh: &Mesh, positions: &[DVec3], p: &SurfacePoint, unit: f64) -> Local {
+        Local {
+            current: p.position(mesh, positions) / unit,
+            rest: p.rest_position(mesh) / unit,
+            map: TriMap::new(mesh, positions, p.tri as usize),
+        }
+    }
 }
 
 /// Force on particle `i` from particle `j` (normalised units), per the formula above.
 #[inline]
-pub fn pair_force(s: &Snapshot, i: usize, j: usize, a: f64, b: f64) -> DVec3 {
-    let ro = original_distance(s.rest[i], s.rest[j]) / s.unit;
+pub fn pair_force(i: &Local, j: &Local, a: f64, b: f64) -> DVec3 {
+    let ro = original_distance(i.rest, j.rest);
     if !(ro > TINY) {
         return DVec3::ZERO;
     }
-    let chord = (s.current[j] - s.current[i]) / s.unit;
+    let chord = j.current - i.current;
     let rs = chord.length();
-    let attract = if rs > TINY { chord / rs * ((ro - rs) / ro * a / (rs * rs)) } else { DVec3::ZERO };
-    let u = path_tangent(s.mesh, s.positions, &s.points[i], s.rest[i], s.rest[j]);
-    attract - u * (b / (ro * ro))
+    let attract = if rs > TINY {
+        chord * ((ro - rs) / ro * a / (rs * rs * rs))
+    } else {
+        DVec3::ZERO
+    };
+    attract - path_tangent(&i.map, i.rest, j.rest) * (b / (ro * ro))
 }
 
-/// F_i for every particle i (normalised units, current-space directions).
-pub fn forces(s: &Snapshot, a: f64, b: f64) -> Vec<DVec3> {
-    let k = s.points.len();
-    (0..k).map(|i| (0..k).filter(|&j| j != i).map(|j| pair_force(s, i, j, a, b)).sum()).collect()
+/// Writes F_i for every particle i (normalised units, current-space directions) into `out`.
+pub fn forces(locals: &[Local], a: f64, b: f64, out: &mut Vec<DVec3>) {
+    out.clear();
+    out.extend(locals.iter().enumerate().map(|(i, li)| {
+        locals
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(_, lj)| pair_force(li, lj, a, b))
+            .sum::<DVec3>()
+    }));
 }

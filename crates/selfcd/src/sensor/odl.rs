@@ -11,8 +11,7 @@
 //! deformation of i's triangle. Curved rest shapes need a geodesic on the rest
 //! mesh, which is not implemented: [`check_flat`] refuses them.
 
-use super::particle::SurfacePoint;
-use super::tangent;
+use super::tangent::{self, TriMap};
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use glam::DVec3;
@@ -31,8 +30,17 @@ pub fn rest_plane(mesh: &Mesh) -> (DVec3, DVec3) {
             e1.cross(e2)
         })
         .collect();
-    let largest = crosses.iter().copied().fold(DVec3::ZERO, |a, c| if c.length_squared() > a.length_squared() { c } else { a });
-    let sum: DVec3 = crosses.iter().map(|&c| if c.dot(largest) < 0.0 { -c } else { c }).sum();
+    let largest = crosses.iter().copied().fold(DVec3::ZERO, |a, c| {
+        if c.length_squared() > a.length_squared() {
+            c
+        } else {
+            a
+        }
+    });
+    let sum: DVec3 = crosses
+        .iter()
+        .map(|&c| if c.dot(largest) < 0.0 { -c } else { c })
+        .sum();
     let centroid = rest.iter().copied().sum::<DVec3>() / rest.len() as f64;
     (centroid, sum.normalize_or(DVec3::Z))
 }
@@ -44,7 +52,10 @@ pub fn flatness_deviation(mesh: &Mesh) -> f64 {
     let lo = rest.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
     let hi = rest.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
-    rest.iter().map(|&p| (p - c).dot(n).abs()).fold(0.0, f64::max) / diag
+    rest.iter()
+        .map(|&p| (p - c).dot(n).abs())
+        .fold(0.0, f64::max)
+        / diag
 }
 
 /// Ok when the rest shape is flat within [`FLAT_TOLERANCE`], else [`Error::CurvedRestShape`].
@@ -53,7 +64,10 @@ pub fn check_flat(mesh: &Mesh) -> Result<()> {
     if deviation <= FLAT_TOLERANCE {
         return Ok(());
     }
-    Err(Error::CurvedRestShape { deviation, what: "the particle sensor's original distance" })
+    Err(Error::CurvedRestShape {
+        deviation,
+        what: "the particle sensor's original distance",
+    })
 }
 
 /// Original distance ro = |R_j - R_i| between two particles at rest positions `ri`, `rj`.
@@ -62,11 +76,11 @@ pub fn original_distance(ri: DVec3, rj: DVec3) -> f64 {
     (rj - ri).length()
 }
 
-/// Unit tangent u_ij at particle `pi` (current shape `positions`) of the surface
-/// path towards rest point `rj`: the rest direction R_j - R_i mapped through the
-/// deformation of pi's triangle, normalised. Zero when undefined (coincident
-/// rest points or a degenerate triangle).
-pub fn path_tangent(mesh: &Mesh, positions: &[DVec3], pi: &SurfacePoint, ri: DVec3, rj: DVec3) -> DVec3 {
-    let t = pi.tri as usize;
-    tangent::map(mesh, mesh.rest(), positions, t, rj - ri).map_or(DVec3::ZERO, |v| v.normalize_or_zero())
+/// Unit tangent u_ij at particle i of the surface path towards j: the rest
+/// direction R_j - R_i mapped through the deformation `map` of i's triangle,
+/// normalised. Zero when undefined (coincident rest points or a degenerate triangle).
+#[inline]
+pub fn path_tangent(map: &TriMap, ri: DVec3, rj: DVec3) -> DVec3 {
+    map.to_current(rj - ri)
+        .map_or(DVec3::ZERO, |v| v.normalize_or_zero())
 }

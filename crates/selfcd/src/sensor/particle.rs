@@ -19,7 +19,10 @@ pub struct SurfacePoint {
 impl SurfacePoint {
     /// The centroid of triangle `tri`.
     pub fn centroid(tri: u32) -> SurfacePoint {
-        SurfacePoint { tri, bary: [1.0 / 3.0; 3] }
+        SurfacePoint {
+            tri,
+            bary: [1.0 / 3.0; 3],
+        }
     }
 
     /// Checks that the point is on `mesh`: valid triangle, finite weights >= 0 summing to 1 (within 1e-9).

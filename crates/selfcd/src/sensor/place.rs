@@ -16,7 +16,10 @@ pub fn farthest_points(mesh: &Mesh, count: usize) -> Vec<SurfacePoint> {
         .map(|t| mesh.corners(rest, t).iter().sum::<DVec3>() / 3.0)
         .collect();
     let middle = rest.iter().copied().sum::<DVec3>() / rest.len() as f64;
-    let mut dist: Vec<f64> = centroids.iter().map(|c| c.distance_squared(middle)).collect();
+    let mut dist: Vec<f64> = centroids
+        .iter()
+        .map(|c| c.distance_squared(middle))
+        .collect();
     let mut out = Vec::with_capacity(count);
     for _ in 0..count {
         let best = argmax(&dist);

@@ -9,12 +9,12 @@
 //! closest pair by straight-line distance is found, and the sensor triggers
 //! when that distance is below the tolerance.
 
-use super::forces::{forces, Snapshot};
+use super::forces::{forces, Local};
 use super::odl::{check_flat, original_distance};
 use super::params::SensorParams;
 use super::particle::SurfacePoint;
 use super::place::farthest_points;
-use super::{tangent, walk};
+use super::walk;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use glam::DVec3;
@@ -28,6 +28,8 @@ pub struct Sensor {
     points: Vec<SurfacePoint>,
     unit: f64,
     margin: f64,
+    locals: Vec<Local>,
+    forces: Vec<DVec3>,
 }
 
 /// The closest particle pair by straight-line distance; distances in mean-edge units.
@@ -72,13 +74,25 @@ impl Sensor {
     }
 
     /// A sensor with the given particles (their number overrides `params.count`).
-    pub fn with_points(mesh: Arc<Mesh>, mut params: SensorParams, points: Vec<SurfacePoint>) -> Result<Sensor> {
+    pub fn with_points(
+        mesh: Arc<Mesh>,
+        mut params: SensorParams,
+        points: Vec<SurfacePoint>,
+    ) -> Result<Sensor> {
         params.count = points.len();
         params.validate()?;
         check_flat(&mesh)?;
         points.iter().try_for_each(|p| p.check(&mesh))?;
         let unit = mesh.mean_edge_length();
-        Ok(Sensor { mesh, params, points, unit, margin: 0.0 })
+        Ok(Sensor {
+            mesh,
+            params,
+            points,
+            unit,
+            margin: 0.0,
+            locals: Vec::new(),
+            forces: Vec::new(),
+        })
     }
 
     /// Adds `length` (metres, >= 0) to the trigger distance: the detector's proximity thickness.
@@ -108,7 +122,10 @@ impl Sensor {
 
     /// Particle positions in shape `positions`.
     pub fn positions(&self, positions: &[DVec3]) -> Vec<DVec3> {
-        self.points.iter().map(|p| p.position(&self.mesh, positions)).collect()
+        self.points
+            .iter()
+            .map(|p| p.position(&self.mesh, positions))
+            .collect()
     }
 
     /// Relaxes at `positions` (checked against the mesh) and decides the trigger.
@@ -128,46 +145,46 @@ impl Sensor {
             }
         }
         let closest = self.closest(positions);
-        Relaxation { steps, moving, closest, triggered: closest.sl < self.trigger_distance() }
+        Relaxation {
+            steps,
+            moving,
+            closest,
+            triggered: closest.sl < self.trigger_distance(),
+        }
     }
 
     /// One update of every particle from the same snapshot; returns how many moved more than epsilon.
     pub fn update(&mut self, positions: &[DVec3]) -> u32 {
         let mesh = &*self.mesh;
-        let rest: Vec<DVec3> = self.points.iter().map(|p| p.rest_position(mesh)).collect();
-        let current = self.positions(positions);
-        let snap = Snapshot { mesh, positions, points: &self.points, current: &current, rest: &rest, unit: self.unit };
-        let f = forces(&snap, self.params.a, self.params.b);
+        self.locals.clear();
+        self.locals.extend(
+            self.points
+                .iter()
+                .map(|p| Local::new(mesh, positions, p, self.unit)),
+        );
+        forces(&self.locals, self.params.a, self.params.b, &mut self.forces);
         let mut moving = 0;
-        for (i, fi) in f.iter().enumerate() {
-            let p = self.points[i];
-            let d = self.displacement(positions, &p, *fi);
-            let next = walk::step(mesh, positions, p, d);
-            if next.position(mesh, positions).distance(current[i]) > self.params.epsilon * self.unit {
+        for ((p, l), f) in self.points.iter_mut().zip(&self.locals).zip(&self.forces) {
+            let d = displacement(&self.params, l, *f) * self.unit;
+            *p = walk::step(mesh, &l.map, *p, d);
+            if p.position(mesh, positions).distance(l.current * self.unit)
+                > self.params.epsilon * self.unit
+            {
                 moving += 1;
             }
-            self.points[i] = next;
         }
         moving
-    }
-
-    /// The step of particle `p` under force `f`: tangent part, times the gain,
-    /// clamped to the maximum step, in metres. Zero on a degenerate triangle.
-    fn displacement(&self, positions: &[DVec3], p: &SurfacePoint, f: DVec3) -> DVec3 {
-        let Some(n) = tangent::normal(&self.mesh, positions, p.tri as usize) else { return DVec3::ZERO };
-        let step = (f - n * f.dot(n)) * self.params.step_gain;
-        let len = step.length();
-        if !len.is_finite() {
-            return DVec3::ZERO;
-        }
-        let clamped = if len > self.params.max_step { step * (self.params.max_step / len) } else { step };
-        clamped * self.unit
     }
 
     /// The pair with the smallest straight-line distance (first such pair on ties).
     pub fn closest(&self, positions: &[DVec3]) -> ClosestPair {
         let cur = self.positions(positions);
-        let mut best = ClosestPair { i: 0, j: 1, sl: f64::INFINITY, odl: f64::INFINITY };
+        let mut best = ClosestPair {
+            i: 0,
+            j: 1,
+            sl: f64::INFINITY,
+            odl: f64::INFINITY,
+        };
         for i in 0..cur.len() {
             for j in i + 1..cur.len() {
                 let sl = cur[i].distance(cur[j]) / self.unit;
@@ -176,8 +193,30 @@ impl Sensor {
                 }
             }
         }
-        let (ri, rj) = (self.points[best.i].rest_position(&self.mesh), self.points[best.j].rest_position(&self.mesh));
+        let (ri, rj) = (
+            self.points[best.i].rest_position(&self.mesh),
+            self.points[best.j].rest_position(&self.mesh),
+        );
         best.odl = original_distance(ri, rj) / self.unit;
         best
+    }
+}
+
+/// The step of a particle under force `f` in mean-edge units: the tangent part
+/// F - (F.n) n, times the gain, clamped to the maximum step. Zero on a degenerate triangle.
+#[inline]
+fn displacement(params: &SensorParams, l: &Local, f: DVec3) -> DVec3 {
+    let Some(n) = l.map.normal else {
+        return DVec3::ZERO;
+    };
+    let step = (f - n * f.dot(n)) * params.step_gain;
+    let len = step.length();
+    if !len.is_finite() {
+        return DVec3::ZERO;
+    }
+    if len > params.max_step {
+        step * (params.max_step / len)
+    } else {
+        step
     }
 }

@@ -8,7 +8,7 @@
 //! forming F.
 
 use crate::mesh::Mesh;
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// Below this |E1 x E2|^2 / (|E1|^2 |E2|^2) (squared sine of the corner angle) a triangle has no tangent plane.
 const MIN_SIN2: f64 = 1e-20;
@@ -41,23 +41,70 @@ pub fn from_bary(e1: DVec3, e2: DVec3, d: [f64; 2]) -> DVec3 {
     e1 * d[0] + e2 * d[1]
 }
 
-/// Unit normal (E1 x E2 normalised) of triangle `t` in `positions`; None if degenerate.
+/// Dual basis (E1*, E2*) of edges (E1, E2): Ei* . Ej = delta_ij, both in the
+/// triangle's plane, so (E1* . v, E2* . v) are the increments of the in-plane
+/// part of v. None when the triangle is degenerate.
 #[inline]
-pub fn normal(mesh: &Mesh, positions: &[DVec3], t: usize) -> Option<DVec3> {
-    let (e1, e2) = edges(mesh, positions, t);
-    let n = e1.cross(e2);
-    let l2 = n.length_squared();
-    (l2 > MIN_SIN2 * e1.length_squared() * e2.length_squared()).then(|| n / l2.sqrt())
+pub fn dual(e1: DVec3, e2: DVec3) -> Option<(DVec3, DVec3)> {
+    let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let det = g11 * g22 - g12 * g12;
+    if !(det > MIN_SIN2 * g11 * g22) {
+        return None;
+    }
+    Some(((e1 * g22 - e2 * g12) / det, (e2 * g11 - e1 * g12) / det))
 }
 
-/// Maps the tangent vector `v` of triangle `t` from shape `from` to shape `to`
-/// through the triangle's deformation; None when `t` is degenerate in `from`.
+/// The linear map v -> a1 (d1 . v) + a2 (d2 . v) as a matrix.
 #[inline]
-pub fn map(mesh: &Mesh, from: &[DVec3], to: &[DVec3], t: usize, v: DVec3) -> Option<DVec3> {
-    let (a1, a2) = edges(mesh, from, t);
-    let d = to_bary(a1, a2, v)?;
-    let (b1, b2) = edges(mesh, to, t);
-    Some(from_bary(b1, b2, d))
+fn outer(a1: DVec3, d1: DVec3, a2: DVec3, d2: DVec3) -> DMat3 {
+    DMat3::from_cols(
+        a1 * d1.x + a2 * d2.x,
+        a1 * d1.y + a2 * d2.y,
+        a1 * d1.z + a2 * d2.z,
+    )
+}
+
+/// The deformation map of one triangle between rest and current shape:
+/// F = e1 (x) E1* + e2 (x) E2* (rest -> current), formed once so each mapping
+/// is one mat-vec, and the current dual basis (e1*, e2*) that turns a current
+/// tangent vector into barycentric increments (the way back, F^-1 on the plane).
+#[derive(Debug, Clone, Copy)]
+pub struct TriMap {
+    /// F: rest tangent -> current tangent; None if the rest triangle is degenerate.
+    pub forward: Option<DMat3>,
+    /// Current dual basis (e1*, e2*); None if the current triangle is degenerate.
+    pub current_dual: Option<(DVec3, DVec3)>,
+    /// Unit current normal; None when the triangle is degenerate in the current shape.
+    pub normal: Option<DVec3>,
+}
+
+impl TriMap {
+    /// The map of triangle `t` between `mesh`'s rest shape and `positions`.
+    #[inline]
+    pub fn new(mesh: &Mesh, positions: &[DVec3], t: usize) -> TriMap {
+        let (r1, r2) = edges(mesh, mesh.rest(), t);
+        let (c1, c2) = edges(mesh, positions, t);
+        let rest_dual = dual(r1, r2);
+        let cur_dual = dual(c1, c2);
+        TriMap {
+            forward: rest_dual.map(|(d1, d2)| outer(c1, d1, c2, d2)),
+            current_dual: cur_dual,
+            normal: cur_dual.map(|_| c1.cross(c2).normalize()),
+        }
+    }
+
+    /// Rest tangent vector -> current tangent vector (F v); None if degenerate.
+    #[inline]
+    pub fn to_current(&self, v: DVec3) -> Option<DVec3> {
+        self.forward.map(|f| f * v)
+    }
+
+    /// Current tangent vector -> barycentric increments (e1* . v, e2* . v) of its
+    /// in-plane part; read with the rest edges they give F^-1 v. None if degenerate.
+    #[inline]
+    pub fn increments(&self, v: DVec3) -> Option<[f64; 2]> {
+        self.current_dual.map(|(d1, d2)| [d1.dot(v), d2.dot(v)])
+    }
 }
 
 #[cfg(test)]
@@ -74,5 +121,26 @@ mod tests {
         let d2 = to_bary(e1, e2, v + DVec3::Z).unwrap();
         assert!((d2[0] - d[0]).abs() < 1e-15 && (d2[1] - d[1]).abs() < 1e-15);
         assert!(to_bary(e1, e1 * 2.0, v).is_none());
+    }
+
+    #[test]
+    fn map_round_trip_through_a_stretch() {
+        let mesh = Mesh::new(
+            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        let cur = [
+            DVec3::ZERO,
+            DVec3::new(0.0, 2.0, 0.0),
+            DVec3::new(0.0, 0.0, 3.0),
+        ];
+        let m = TriMap::new(&mesh, &cur, 0);
+        let v = DVec3::new(0.25, 0.5, 0.0);
+        let c = m.to_current(v).unwrap();
+        assert!((c - DVec3::new(0.0, 0.5, 1.5)).length() < 1e-15);
+        let back = m.increments(c).unwrap();
+        assert!((from_bary(DVec3::X, DVec3::Y, back) - v).length() < 1e-15);
+        assert!((m.normal.unwrap() - DVec3::X).length() < 1e-15);
     }
 }

@@ -13,36 +13,41 @@
 //! 1 after every move, so the particle never leaves the surface.
 
 use super::particle::SurfacePoint;
-use super::tangent;
+use super::tangent::{self, TriMap};
 use crate::mesh::Mesh;
 use glam::DVec3;
 
 /// Most edge crossings (and slides) of one step; a step that needs more stops there, still on the surface.
 pub const MAX_CROSSINGS: usize = 256;
 
-/// Moves `p` by the current-space tangent vector `d` (shape `positions`).
-/// A degenerate current triangle has no tangent plane: the particle stays.
-pub fn step(mesh: &Mesh, positions: &[DVec3], p: SurfacePoint, d: DVec3) -> SurfacePoint {
-    match tangent::map(mesh, positions, mesh.rest(), p.tri as usize, d) {
-        Some(r) => walk(mesh, p, r),
+/// Moves `p` by the current-space tangent vector `d`, carried to rest space by
+/// `map` (the deformation of p's triangle). A degenerate current triangle has
+/// no tangent plane: the particle stays.
+pub fn step(mesh: &Mesh, map: &TriMap, p: SurfacePoint, d: DVec3) -> SurfacePoint {
+    match map.increments(d) {
+        Some(inc) => walk_increments(mesh, p, inc),
         None => p,
     }
 }
 
 /// Follows the rest-space vector `r` (in the plane of p's triangle) from `p` as a
 /// straight line on the unfolded rest surface, sliding along boundary edges.
-pub fn walk(mesh: &Mesh, mut p: SurfacePoint, mut r: DVec3) -> SurfacePoint {
+pub fn walk(mesh: &Mesh, p: SurfacePoint, r: DVec3) -> SurfacePoint {
+    let (e1, e2) = tangent::edges(mesh, mesh.rest(), p.tri as usize);
+    match tangent::to_bary(e1, e2, r) {
+        Some(inc) => walk_increments(mesh, p, inc),
+        None => p,
+    }
+}
+
+/// [`walk`] with the step given as barycentric increments (d1, d2) in p's triangle.
+pub fn walk_increments(mesh: &Mesh, mut p: SurfacePoint, mut inc: [f64; 2]) -> SurfacePoint {
     let rest = mesh.rest();
-    let stop = r.length() * 1e-12;
+    let stop = mesh.mean_edge_length() * 1e-12;
     // Local index of the vertex opposite the edge the point lies on and must not leave through.
     let mut entry: Option<usize> = None;
     for _ in 0..MAX_CROSSINGS {
-        if !(r.length() > stop) {
-            break;
-        }
-        let (e1, e2) = tangent::edges(mesh, rest, p.tri as usize);
-        let Some([d1, d2]) = tangent::to_bary(e1, e2, r) else { break };
-        let d = [-(d1 + d2), d1, d2];
+        let d = [-(inc[0] + inc[1]), inc[0], inc[1]];
         let Some((k, s)) = exit(&p.bary, &d, entry) else {
             advance(&mut p, &d, 1.0);
             break;
@@ -50,18 +55,27 @@ pub fn walk(mesh: &Mesh, mut p: SurfacePoint, mut r: DVec3) -> SurfacePoint {
         advance(&mut p, &d, s);
         p.bary[k] = 0.0;
         p.normalise();
-        r *= 1.0 - s;
-        match cross(mesh, &p, k) {
+        let (e1, e2) = tangent::edges(mesh, rest, p.tri as usize);
+        let r = tangent::from_bary(e1, e2, inc) * (1.0 - s);
+        let r = match cross(mesh, &p, k) {
             Some((next, opposite)) => {
-                r = unfold(r, mesh, p.tri, k, next.tri, opposite);
-                p = next;
-                entry = Some(opposite);
+                let r = unfold(r, mesh, p.tri, k, next.tri, opposite);
+                (p, entry) = (next, Some(opposite));
+                r
             }
             None => {
-                r = slide(r, rest, mesh.triangles()[p.tri as usize], k);
                 entry = Some(k);
+                slide(r, rest, mesh.triangles()[p.tri as usize], k)
             }
+        };
+        if !(r.length() > stop) {
+            break;
         }
+        let (f1, f2) = tangent::edges(mesh, rest, p.tri as usize);
+        let Some(next_inc) = tangent::to_bary(f1, f2, r) else {
+            break;
+        };
+        inc = next_inc;
     }
     p
 }
@@ -118,20 +132,29 @@ fn cross(mesh: &Mesh, p: &SurfacePoint, k: usize) -> Option<(SurfacePoint, usize
 /// pointing into each triangle, r' = (r.e) e - (r.n_from) n_to.
 fn unfold(r: DVec3, mesh: &Mesh, from: u32, k: usize, to: u32, opposite: usize) -> DVec3 {
     let rest = mesh.rest();
-    let (tf, tt) = (mesh.triangles()[from as usize], mesh.triangles()[to as usize]);
+    let (tf, tt) = (
+        mesh.triangles()[from as usize],
+        mesh.triangles()[to as usize],
+    );
     let a = rest[tf[(k + 1) % 3] as usize];
     let e = (rest[tf[(k + 2) % 3] as usize] - a).normalize_or_zero();
     let inward = |c: DVec3| {
         let v = c - a;
         (v - e * v.dot(e)).normalize_or_zero()
     };
-    let (n_from, n_to) = (inward(rest[tf[k] as usize]), inward(rest[tt[opposite] as usize]));
+    let (n_from, n_to) = (
+        inward(rest[tf[k] as usize]),
+        inward(rest[tt[opposite] as usize]),
+    );
     e * r.dot(e) - n_to * r.dot(n_from)
 }
 
 /// The along-edge part of `r` for the boundary edge opposite local vertex `k` of triangle `tri`.
 fn slide(r: DVec3, rest: &[DVec3], tri: [u32; 3], k: usize) -> DVec3 {
-    let (a, b) = (rest[tri[(k + 1) % 3] as usize], rest[tri[(k + 2) % 3] as usize]);
+    let (a, b) = (
+        rest[tri[(k + 1) % 3] as usize],
+        rest[tri[(k + 2) % 3] as usize],
+    );
     let e = (b - a).normalize_or_zero();
     e * r.dot(e)
 }
