@@ -6,6 +6,7 @@ import json
 import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +22,9 @@ def run(*args: str, cwd: Path | None = None, timeout: int = 300) -> subprocess.C
 
 
 def test_console_script_is_installed() -> None:
-    exe = shutil.which("selfcd")
-    assert exe, "pip install . should put the selfcd command on PATH"
+    scripts = Path(sysconfig.get_path("scripts"))
+    exe = shutil.which("selfcd", path=str(scripts))
+    assert exe, f"pip install . should put the selfcd command in {scripts}"
     out = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0
     for sub in ("demo", "detect", "bench"):

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs everything the tests need on a fresh Debian machine and runs every
+# test: the Rust workspace (cargo test) and the Python package (pytest,
+# including the report in headless Chromium).
+#
+# Debian packages (installed only when missing): chromium for the browser
+# test; Mesa's EGL/GL libraries for the polyscope viewer.
+# Python packages: the selfcd package itself (pip install ., which builds the
+# Rust extension with maturin) and its test extras (pytest, playwright, pillow).
+# No browser is downloaded: playwright drives Debian's /usr/bin/chromium.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+DEBS=(chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri)
+missing=()
+for pkg in "${DEBS[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    echo "== apt-get install ${missing[*]}"
+    SUDO=""
+    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq
+    $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" </dev/null
+fi
+
+PY="${PYTHON:-python3}"
+echo "== pip install .[test]"
+"$PY" -m pip install --disable-pip-version-check --progress-bar off ".[test]"
+command -v pyenv >/dev/null && pyenv rehash || true
+
+echo "== cargo test --workspace"
+cargo test --workspace
+
+echo "== pytest"
+"$PY" -m pytest -q tests
