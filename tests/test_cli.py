@@ -112,11 +112,16 @@ def test_demo_writes_report_and_summary(tmp_path: Path) -> None:
 
 
 def test_bench_table_and_json(tmp_path: Path) -> None:
-    out = run("bench", "--sizes", "50,200", "--states", "flat,crumple", "--repeats", "1",
+    out = run("bench", "--sizes", "50,300", "--states", "flat,crumpled", "--repeats", "1", "--brute-limit", "100",
               "--json", str(tmp_path / "b.json"))
     assert out.returncode == 0, out.stderr
     rows = json.loads((tmp_path / "b.json").read_text())
-    assert len(rows) == 2 * 2 * len(selfcd.methods())
-    assert {r["state"] for r in rows} == {"flat", "crumple"}
-    assert "median ms" in out.stdout
+    n = len(selfcd.methods())
+    assert len(rows) == 2 * n + 2 * (n - 1), "brute is skipped above the limit"
+    assert {r["state"] for r in rows} == {"flat", "crumpled"}
+    assert {r["triangles"] for r in rows if r["method"] == "brute"} == {50}
+    crumpled = [r for r in rows if r["state"] == "crumpled" and r["triangles"] > 100]
+    assert all(r["stats"]["contacts"] == crumpled[0]["stats"]["contacts"] for r in crumpled
+               if r["method"] not in selfcd.non_conservative_methods())
+    assert "traverse ms" in out.stdout
     assert run("bench", "--states", "molten").returncode == 2

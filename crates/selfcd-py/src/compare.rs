@@ -61,7 +61,7 @@ pub fn compare_methods<'py>(
 }
 
 /// Calls the Python progress callback (re-taking the GIL); keeps its first error.
-fn report(cb: &Option<Py<PyAny>>, done: usize, err: &mut Option<PyErr>) {
+pub fn report(cb: &Option<Py<PyAny>>, done: usize, err: &mut Option<PyErr>) {
     if let (Some(cb), None) = (cb, &err) {
         if let Err(e) = Python::attach(|py| cb.call1(py, (done,)).map(|_| ())) {
             *err = Some(e);

@@ -5,6 +5,7 @@
 //! engine's message, and a panic (which the engine should never raise) becomes
 //! a `RuntimeError` instead of unwinding into the interpreter.
 
+mod bench;
 mod compare;
 mod convert;
 mod detector;
@@ -46,6 +47,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;
     m.add_function(wrap_pyfunction!(compare::reference_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_scaling, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::bench_states, m)?)?;
     m.add_function(wrap_pyfunction!(scene::grid, m)?)?;
     m.add_function(wrap_pyfunction!(scene::deform, m)?)?;
     Ok(())
