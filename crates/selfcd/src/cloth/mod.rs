@@ -1,2 +1,24 @@
 //! The cloth simulator of the paper (section 4): mass-spring cloth, implicit
 //! Euler with filtered conjugate gradients, constraint-filtered collision response.
+//!
+//! - [`springs`]: stretch, shear and bend springs; force and PSD Jacobian of one spring.
+//! - [`model`]: [`Cloth`] (masses from rest areas, gravity, pins) and [`Material`].
+//! - [`matrix`]: the flat sparse 3x3-block matrix and deterministic parallel kernels.
+//! - [`solver`]: backward Euler system and the filtered PCG (Baraff & Witkin 1998).
+//! - [`response`]: self-contact in the solve, impulses, and the end-of-step correction.
+//! - [`sim`]: [`Simulation`], stepping a cloth with a detector.
+//! - [`scenes`]: the paper's three scenes, [`PaperScene`].
+
+pub mod matrix;
+pub mod model;
+pub mod response;
+pub mod scenes;
+pub mod sim;
+pub mod solver;
+pub mod springs;
+
+pub use model::{Cloth, Energy, Material};
+pub use response::ContactParams;
+pub use scenes::PaperScene;
+pub use sim::{SimOptions, Simulation, StepStats};
+pub use solver::PcgOptions;

@@ -1,0 +1,99 @@
+//! Steps one of the paper's cloth scenes and reports step time, broken down.
+//!
+//! ```text
+//! cargo run --release -p selfcd --example cloth -- [scene] [n] [steps] [method] [warmup]
+//! ```
+//! scene: two-corners | corner | center (default center); n: vertices per side
+//! (default 11); steps: timed steps (default 600); method: detection method
+//! (default bvh-cones-contour); warmup: steps run before timing (default 0).
+
+use selfcd::cloth::PaperScene;
+use selfcd::detect::Method;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn arg<T: std::str::FromStr>(args: &[String], i: usize, default: T) -> Result<T, String> {
+    match args.get(i) {
+        None => Ok(default),
+        Some(s) => s.parse().map_err(|_| format!("bad argument {i}: {s:?}")),
+    }
+}
+
+fn run() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let scene: PaperScene = args
+        .first()
+        .map(|s| s.parse())
+        .transpose()
+        .map_err(|e| format!("{e}"))?
+        .unwrap_or(PaperScene::Center);
+    let n: usize = arg(&args, 1, 11)?;
+    let steps: usize = arg(&args, 2, 600)?;
+    let method: Method = args
+        .get(3)
+        .map(|s| s.parse())
+        .transpose()
+        .map_err(|e| format!("{e}"))?
+        .unwrap_or(Method::BvhConesContour);
+    let warmup: usize = arg(&args, 4, 0)?;
+    let mut sim = scene.simulation(n, method).map_err(|e| e.to_string())?;
+    let tris = sim.cloth().mesh().n_triangles();
+    for _ in 0..warmup {
+        sim.step().map_err(|e| e.to_string())?;
+    }
+    let (mut step, mut solve, mut detect, mut response) = (0.0, 0.0, 0.0, 0.0);
+    let (mut iters, mut contacts, mut reverted, mut rounds, mut worst) =
+        (0u64, 0usize, 0usize, 0u32, 0.0f64);
+    let mut intersections = 0;
+    for k in 0..steps {
+        let st = sim.step().map_err(|e| e.to_string())?;
+        step += st.step_time;
+        solve += st.solve_time;
+        detect += st.detect_time;
+        response += st.response_time;
+        iters += st.iterations as u64;
+        contacts += st.contacts;
+        reverted += st.reverted;
+        rounds += st.correction_rounds;
+        intersections += st.intersections;
+        worst = worst.max(st.step_time);
+        if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
+            let e = sim.energy();
+            println!(
+                "step {k:5} t {:6.2}s it {:3} res {:.1e} contacts {:5} constrained {:4} impulses {:5} reverted {:4} rounds {} step {:.2} ms E {:.4} (kin {:.4})",
+                sim.time(), st.iterations, st.residual, st.contacts, st.constrained, st.impulses, st.reverted, st.correction_rounds, st.step_time * 1e3, e.total(), e.kinetic
+            );
+        }
+    }
+    let s = steps.max(1) as f64;
+    let ms = |x: f64| x / s * 1e3;
+    println!(
+        "scene {scene} n {n} ({tris} triangles) method {method} threads {} steps {steps} (after {warmup} warm-up)",
+        rayon::current_num_threads()
+    );
+    println!(
+        "mean step {:.3} ms ({:.1} steps/s): solve {:.3} ms, detection {:.3} ms, response {:.3} ms; worst step {:.3} ms",
+        ms(step),
+        s / step,
+        ms(solve),
+        ms(detect),
+        ms(response),
+        worst * 1e3
+    );
+    println!(
+        "mean CG iterations {:.1}, contacts/step {:.1}, reverted vertices {reverted}, correction detections/step {:.2}, intersections left {intersections}",
+        iters as f64 / s,
+        contacts as f64 / s,
+        rounds as f64 / s
+    );
+    Ok(())
+}

@@ -1,0 +1,313 @@
+//! Self-collision response, in three stages per step.
+//!
+//! 1. **In the solve (the paper, 4.2).** A vertex closer than the thickness `d`
+//!    to a triangle, and not moving away from it fast enough, is constrained
+//!    along the contact normal n: the solve keeps only the tangential part of
+//!    its acceleration, `a = (F - (F.n) n) / m`, and adds the triangle's
+//!    acceleration along n (estimated from the triangle's velocity change in
+//!    the previous step: both sides are unknowns of the same solve), plus a
+//!    velocity change that stops the approach and pushes back out to `d`.
+//! 2. **Impulses.** Every proximity contact (vertex-triangle and edge-edge)
+//!    found within `d + margin` gets mass-weighted impulses, Gauss-Seidel in
+//!    sorted order, so that its relative normal velocity `vn` satisfies
+//!    `vn >= -(dist - d) / h` (do not get closer than `d` this step) or, inside
+//!    `d`, `vn >= push (d - dist) / h` (move a fraction `push` back out).
+//! 3. **Correction.** The end-of-step positions are checked for intersecting
+//!    triangle pairs with a conservative detector; the vertices of every
+//!    intersecting triangle go back to their start-of-step positions (which
+//!    were intersection-free) with zero velocity, and the check repeats. Each
+//!    round reverts at least one more vertex, so it ends, and it ends with no
+//!    intersecting pair whenever the step started with none.
+
+use super::solver::Filter;
+use crate::detect::{Detection, Detector, ProximityContacts};
+use crate::error::{Error, Result};
+use crate::mesh::Mesh;
+use glam::DVec3;
+use std::time::Instant;
+
+/// Contact thickness and how contacts are handled.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactParams {
+    /// Thickness d (m): the cloth keeps this distance from itself.
+    pub thickness: f64,
+    /// Extra detection distance (m) beyond `d`, so that contacts are seen a
+    /// step before they close; the detector runs with thickness `d + margin`.
+    pub margin: f64,
+    /// Fraction of a penetration of the thickness pushed back out per step, in [0, 1].
+    pub push: f64,
+    /// Most Gauss-Seidel sweeps of the impulse stage.
+    pub sweeps: u32,
+}
+
+impl ContactParams {
+    /// Defaults scaled to a mesh: `d` = 10% and the margin 25% of the mean rest edge length.
+    pub fn for_mesh(mesh: &Mesh) -> ContactParams {
+        let e = mesh.mean_edge_length();
+        ContactParams {
+            thickness: 0.1 * e,
+            margin: 0.25 * e,
+            push: 0.5,
+            sweeps: 20,
+        }
+    }
+
+    /// The distance the detector reports contacts within: `d + margin`.
+    pub fn detection_distance(&self) -> f64 {
+        self.thickness + self.margin
+    }
+
+    /// Checks ranges: d > 0, margin >= 0, push in [0, 1], all finite.
+    pub fn validate(&self) -> Result<()> {
+        let ok = self.thickness > 0.0
+            && self.thickness.is_finite()
+            && self.margin >= 0.0
+            && self.margin.is_finite()
+            && (0.0..=1.0).contains(&self.push);
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::InvalidParameter(format!(
+                "contact parameters out of range (thickness > 0, margin >= 0, push in [0, 1]): {self:?}"
+            )))
+        }
+    }
+}
+
+/// Which elements a contact is between.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactKind {
+    /// A vertex (slot 0) and a triangle (slots 1-3).
+    VertexTriangle,
+    /// Two edges (slots 0-1 and 2-3).
+    EdgeEdge,
+}
+
+/// A proximity contact as a weighted set of four vertices: the relative
+/// position of the two sides is `sum_k weights[k] x[verts[k]]` (first side
+/// minus second), and `normal` points from the second side to the first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// The vertices involved.
+    pub verts: [u32; 4],
+    /// Their weights: positive on the first side, negative on the second.
+    pub weights: [f64; 4],
+    /// Unit normal, from the second side to the first.
+    pub normal: DVec3,
+    /// Distance between the two sides when detected (m).
+    pub distance: f64,
+    /// What touches what.
+    pub kind: ContactKind,
+}
+
+impl Contact {
+    /// Relative velocity along the normal, `sum_k w_k v_k . n` (positive: separating).
+    #[inline]
+    pub fn normal_velocity(&self, v: &[DVec3]) -> f64 {
+        self.combine(v).dot(self.normal)
+    }
+
+    /// `sum_k w_k y_k` for a per-vertex field `y`.
+    #[inline]
+    fn combine(&self, y: &[DVec3]) -> DVec3 {
+        (0..4)
+            .map(|k| y[self.verts[k] as usize] * self.weights[k])
+            .sum()
+    }
+}
+
+/// `v / |v|`, or `fallback` when `v` is too short to have a direction.
+fn unit_or(v: DVec3, scale: f64, fallback: DVec3) -> DVec3 {
+    let l = v.length();
+    if l > 1e-12 * scale {
+        v / l
+    } else {
+        fallback
+    }
+}
+
+/// Turns the detector's proximity contacts at positions `x` into [`Contact`]s,
+/// vertex-triangle contacts first, each list in the detector's sorted order.
+pub fn gather(mesh: &Mesh, x: &[DVec3], found: &ProximityContacts) -> Vec<Contact> {
+    let scale = mesh.mean_edge_length();
+    let edges = &mesh.topology().edges;
+    let mut out = Vec::with_capacity(found.vertex_triangle.len() + found.edge_edge.len());
+    for c in &found.vertex_triangle {
+        let t = mesh.triangles()[c.triangle as usize];
+        let [a, b, cc] = mesh.corners(x, c.triangle as usize);
+        let w = c.bary;
+        let q = a * w[0] + b * w[1] + cc * w[2];
+        let face = unit_or((b - a).cross(cc - a), scale * scale, DVec3::Z);
+        out.push(Contact {
+            verts: [c.vertex, t[0], t[1], t[2]],
+            weights: [1.0, -w[0], -w[1], -w[2]],
+            normal: unit_or(x[c.vertex as usize] - q, scale, face),
+            distance: c.distance,
+            kind: ContactKind::VertexTriangle,
+        });
+    }
+    for c in &found.edge_edge {
+        let ([a, b], [p, q]) = (edges[c.edges[0] as usize], edges[c.edges[1] as usize]);
+        let [s, t] = c.params;
+        let (xa, xb, xp, xq) = (x[a as usize], x[b as usize], x[p as usize], x[q as usize]);
+        let across = unit_or((xb - xa).cross(xq - xp), scale * scale, DVec3::Z);
+        let gap = (xa + (xb - xa) * s) - (xp + (xq - xp) * t);
+        out.push(Contact {
+            verts: [a, b, p, q],
+            weights: [1.0 - s, s, t - 1.0, -t],
+            normal: unit_or(gap, scale, across),
+            distance: c.distance,
+            kind: ContactKind::EdgeEdge,
+        });
+    }
+    out
+}
+
+/// The relative normal velocity a contact must reach this step (see the module doc).
+#[inline]
+fn goal(c: &Contact, p: &ContactParams, h: f64) -> f64 {
+    let gap = c.distance - p.thickness;
+    if gap < 0.0 {
+        -p.push * gap / h
+    } else {
+        -gap / h
+    }
+}
+
+/// Stage 1: constrains, in the solve's filter, every vertex closer than `d` to
+/// a triangle that is not separating at the goal speed. `dv_prev` is the last
+/// step's velocity change (the triangle's acceleration estimate). Returns the
+/// number of constraints added.
+pub fn constrain(
+    contacts: &[Contact],
+    v: &[DVec3],
+    dv_prev: &[DVec3],
+    p: &ContactParams,
+    h: f64,
+    filter: &mut Filter,
+) -> usize {
+    let mut added = 0;
+    for c in contacts
+        .iter()
+        .filter(|c| c.kind == ContactKind::VertexTriangle && c.distance < p.thickness)
+    {
+        let (vn, want) = (c.normal_velocity(v), goal(c, p, h));
+        if vn >= want {
+            continue;
+        }
+        // The triangle's part of sum w dv (weights 1..3 are minus its barycentrics).
+        let obstacle_dv: DVec3 = (1..4)
+            .map(|k| dv_prev[c.verts[k] as usize] * -c.weights[k])
+            .sum();
+        let target = want - vn + obstacle_dv.dot(c.normal);
+        if filter.constrain(c.verts[0] as usize, c.normal, target) {
+            added += 1;
+        }
+    }
+    added
+}
+
+/// What the impulse stage did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ImpulseStats {
+    /// Gauss-Seidel sweeps run.
+    pub sweeps: u32,
+    /// Impulses applied, over all sweeps.
+    pub impulses: u64,
+}
+
+/// Stage 2: mass-weighted impulses until every contact meets its goal normal
+/// velocity (or `p.sweeps` sweeps). An impulse `j` along n changes `v_k` by
+/// `w_k j n / m_k`, with `j = (goal - vn) / sum_k w_k^2 / m_k`, so momentum is
+/// conserved and pinned vertices (inverse mass 0) do not move.
+pub fn impulses(
+    contacts: &[Contact],
+    inv_mass: &[f64],
+    v: &mut [DVec3],
+    p: &ContactParams,
+    h: f64,
+) -> ImpulseStats {
+    let mut stats = ImpulseStats::default();
+    let slack = 1e-9 * p.thickness / h;
+    while stats.sweeps < p.sweeps {
+        stats.sweeps += 1;
+        let mut applied = 0;
+        for c in contacts {
+            let deficit = goal(c, p, h) - c.normal_velocity(v);
+            if deficit <= slack {
+                continue;
+            }
+            let w_m: f64 = (0..4)
+                .map(|k| c.weights[k] * c.weights[k] * inv_mass[c.verts[k] as usize])
+                .sum();
+            if !(w_m > 0.0) {
+                continue;
+            }
+            let j = deficit / w_m;
+            for k in 0..4 {
+                let i = c.verts[k] as usize;
+                v[i] += c.normal * (c.weights[k] * inv_mass[i] * j);
+            }
+            applied += 1;
+        }
+        stats.impulses += applied;
+        if applied == 0 {
+            break;
+        }
+    }
+    stats
+}
+
+/// What the correction stage did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Correction {
+    /// Detections run (the last one at the final positions).
+    pub rounds: u32,
+    /// Vertices put back to their start-of-step positions.
+    pub reverted: usize,
+    /// Intersecting pairs left (0 unless the step started with intersections).
+    pub remaining: usize,
+    /// Detection time (s).
+    pub detect_time: f64,
+    /// The last detection, at the final positions.
+    pub detection: Detection,
+}
+
+/// Stage 3: reverts the vertices of intersecting triangles to `x0` (with zero
+/// velocity) until `detector` finds no intersecting pair at `x`, or no vertex
+/// is left to revert. `detector` must be conservative for the guarantee.
+pub fn correct(
+    detector: &mut dyn Detector,
+    x0: &[DVec3],
+    x: &mut [DVec3],
+    v: &mut [DVec3],
+) -> Result<Correction> {
+    let mesh = detector.mesh().clone();
+    let tris = mesh.triangles();
+    let mut reverted = vec![false; x.len()];
+    let mut out = Correction::default();
+    loop {
+        let t0 = Instant::now();
+        let det = detector.detect(x)?;
+        out.detect_time += t0.elapsed().as_secs_f64();
+        out.rounds += 1;
+        let mut progress = false;
+        for &[a, b] in &det.pairs {
+            for &i in tris[a as usize].iter().chain(&tris[b as usize]) {
+                let i = i as usize;
+                if !reverted[i] {
+                    reverted[i] = true;
+                    x[i] = x0[i];
+                    v[i] = DVec3::ZERO;
+                    out.reverted += 1;
+                    progress = true;
+                }
+            }
+        }
+        if !progress {
+            out.remaining = det.pairs.len();
+            out.detection = det;
+            return Ok(out);
+        }
+    }
+}

@@ -1,0 +1,246 @@
+//! The cloth simulator: pins, free fall, rest under gravity, long runs, no
+//! self-intersection at the end of any step, determinism across thread counts.
+
+use selfcd::cloth::springs::SpringKind;
+use selfcd::cloth::{Cloth, Material, PaperScene, SimOptions, Simulation};
+use selfcd::detect::{new_detector, DetectorOptions, Method};
+use selfcd::scene::grid;
+use selfcd::{DVec3, Error, Mesh};
+use std::sync::Arc;
+
+const H: f64 = 1.0 / 60.0;
+
+fn all_finite(x: &[DVec3]) -> bool {
+    x.iter().all(|p| p.is_finite())
+}
+
+#[test]
+fn pinned_vertices_never_move() {
+    for scene in PaperScene::ALL {
+        let mut sim = scene.simulation(11, Method::BvhConesContour).unwrap();
+        let pins = scene.pins(11);
+        let rest: Vec<DVec3> = pins.iter().map(|&p| sim.positions()[p as usize]).collect();
+        for _ in 0..240 {
+            sim.step().unwrap();
+            for (k, &p) in pins.iter().enumerate() {
+                assert_eq!(
+                    sim.positions()[p as usize],
+                    rest[k],
+                    "{scene}: pin {p} moved"
+                );
+                assert_eq!(sim.velocities()[p as usize], DVec3::ZERO);
+            }
+        }
+        assert!(
+            sim.positions().iter().any(|p| p.z < -0.3),
+            "{scene}: the free part fell"
+        );
+    }
+}
+
+#[test]
+fn free_fall_follows_g_t_squared_over_two() {
+    let (v, f) = grid(11, 1.0);
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let material = Material::default();
+    let cloth = Cloth::new(mesh, material, &[]).unwrap();
+    let mut sim = Simulation::new(
+        cloth.clone(),
+        Method::BvhConesContour,
+        SimOptions::for_cloth(&cloth),
+    )
+    .unwrap();
+    let (g, c) = (9.81, material.air_drag);
+    for step in 1..=60 {
+        sim.step().unwrap();
+        let t = step as f64 * H;
+        let zs: Vec<f64> = sim.positions().iter().map(|p| p.z).collect();
+        let (lo, hi) = zs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &z| {
+                (a.min(z), b.max(z))
+            });
+        assert!(
+            hi - lo < 1e-9,
+            "the sheet stays flat while falling: spread {}",
+            hi - lo
+        );
+        let drop = -zs[0];
+        // Exact motion with drag c is below g t^2 / 2; backward Euler adds up to g h t / 2.
+        let with_drag = g / c * (t - (1.0 - (-c * t).exp()) / c);
+        let upper = 0.5 * g * t * t + 0.5 * g * H * t;
+        assert!(
+            drop >= with_drag * (1.0 - 1e-9) - 1e-12 && drop <= upper * (1.0 + 1e-9),
+            "t = {t}: drop {drop}, bounds {with_drag}..{upper}"
+        );
+        assert!(
+            (drop / (0.5 * g * t * t) - 1.0).abs() < 0.05 + H / t,
+            "t = {t}: drop {drop}"
+        );
+    }
+}
+
+#[test]
+fn two_corner_cloth_comes_to_rest_with_small_stretch() {
+    let mut sim = PaperScene::TwoCorners
+        .simulation(11, Method::BvhConesContour)
+        .unwrap();
+    for _ in 0..900 {
+        sim.step().unwrap();
+    }
+    let cloth = sim.cloth();
+    let e = sim.energy();
+    let scale = cloth.total_mass() * 9.81 * 1.0;
+    assert!(
+        e.kinetic < 1e-4 * scale,
+        "still moving: kinetic {} J",
+        e.kinetic
+    );
+    let s = cloth.springs();
+    let strains: Vec<f64> = (0..s.len())
+        .filter(|&k| s.kind[k] == SpringKind::Stretch)
+        .map(|k| s.strain(k, sim.positions()))
+        .collect();
+    let mean = strains.iter().map(|e| e.abs()).sum::<f64>() / strains.len() as f64;
+    let max = strains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    assert!(mean < 0.10, "mean stretch {mean}");
+    assert!(max < 0.5, "max stretch {max}");
+}
+
+#[test]
+fn paper_scenes_run_2000_steps_with_bounded_energy() {
+    for scene in PaperScene::ALL {
+        let mut sim = scene.simulation(11, Method::BvhConesContour).unwrap();
+        let scale = sim.cloth().total_mass() * 9.81 * 1.0;
+        let e0 = sim.energy().total();
+        for step in 0..2000 {
+            let st = sim.step().unwrap();
+            assert!(
+                all_finite(sim.positions()) && all_finite(sim.velocities()),
+                "{scene}: non-finite at step {step}"
+            );
+            assert!(st.residual.is_finite());
+            let e = sim.energy();
+            assert!(
+                e.total() <= e0 + 0.02 * scale,
+                "{scene}: energy grew to {} J at step {step}",
+                e.total()
+            );
+            assert!(
+                e.kinetic <= scale,
+                "{scene}: kinetic energy {} J at step {step}",
+                e.kinetic
+            );
+        }
+    }
+}
+
+/// Runs `scene` for `frames` steps and checks every end-of-step state against
+/// the brute-force exact reference.
+fn assert_never_intersects(scene: PaperScene, n: usize, frames: usize) {
+    let mut sim = scene.simulation(n, Method::BvhConesContour).unwrap();
+    let mesh = sim.cloth().mesh().clone();
+    let mut reference = new_detector(mesh, Method::Brute, &DetectorOptions::default()).unwrap();
+    let (mut contacts, mut reverted) = (0, 0);
+    for frame in 0..frames {
+        let st = sim.step().unwrap();
+        let pairs = reference.detect(sim.positions()).unwrap().pairs;
+        assert!(
+            pairs.is_empty(),
+            "{scene} {n}x{n}: {} intersecting pairs after step {frame}: {:?}",
+            pairs.len(),
+            &pairs[..pairs.len().min(5)]
+        );
+        assert_eq!(st.intersections, 0);
+        contacts += st.contacts;
+        reverted += st.reverted;
+    }
+    assert!(
+        contacts > 0,
+        "{scene} {n}x{n}: the cloth never came near itself, so nothing was tested"
+    );
+    eprintln!(
+        "{scene} {n}x{n}: {contacts} contacts, {reverted} vertices reverted over {frames} frames"
+    );
+}
+
+#[test]
+fn center_and_corner_never_self_intersect_11() {
+    assert_never_intersects(PaperScene::Center, 11, 300);
+    assert_never_intersects(PaperScene::Corner, 11, 300);
+}
+
+#[test]
+fn center_and_corner_never_self_intersect_31() {
+    assert_never_intersects(PaperScene::Center, 31, 300);
+    assert_never_intersects(PaperScene::Corner, 31, 300);
+}
+
+#[test]
+fn same_result_for_any_thread_count() {
+    // 47 x 47 vertices: large enough for every parallel path (solver and BVH).
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut sim = PaperScene::Center
+                .simulation(47, Method::BvhConesContour)
+                .unwrap();
+            let mut log = Vec::new();
+            for _ in 0..40 {
+                let st = sim.step().unwrap();
+                log.push((
+                    st.iterations,
+                    st.residual.to_bits(),
+                    st.contacts,
+                    st.reverted,
+                ));
+            }
+            (sim.positions().to_vec(), sim.velocities().to_vec(), log)
+        })
+    };
+    let (x1, v1, l1) = run(1);
+    let (x2, v2, l2) = run(2);
+    assert_eq!(l1, l2);
+    assert!(x1
+        .iter()
+        .zip(&x2)
+        .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)));
+    assert!(v1
+        .iter()
+        .zip(&v2)
+        .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)));
+}
+
+#[test]
+fn bad_options_are_typed_errors() {
+    let cloth = PaperScene::Corner.cloth(5, Material::default()).unwrap();
+    let mut opts = SimOptions::for_cloth(&cloth);
+    opts.dt = 0.0;
+    assert!(matches!(
+        Simulation::new(cloth.clone(), Method::Bvh, opts),
+        Err(Error::InvalidParameter(_))
+    ));
+    let mut opts = SimOptions::for_cloth(&cloth);
+    opts.contact.thickness = f64::NAN;
+    assert!(matches!(
+        Simulation::new(cloth.clone(), Method::Bvh, opts),
+        Err(Error::InvalidParameter(_))
+    ));
+    let mut sim = Simulation::new(
+        cloth,
+        Method::Bvh,
+        SimOptions::for_cloth(&PaperScene::Corner.cloth(5, Material::default()).unwrap()),
+    )
+    .unwrap();
+    assert!(matches!(
+        sim.set_state(vec![DVec3::ZERO; 3], vec![DVec3::ZERO; 3]),
+        Err(Error::PositionsLength { .. })
+    ));
+    assert!(matches!(
+        "nowhere".parse::<PaperScene>(),
+        Err(Error::InvalidParameter(_))
+    ));
+}
