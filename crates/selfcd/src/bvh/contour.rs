@@ -20,12 +20,13 @@
 //!
 //! The loop is checked in O(contour) by the star test about the patch's box
 //! centre; when that fails, contours up to 64 edges get the exact condition
-//! (one simple counter-clockwise loop, quadratic). The union of two such disks
-//! that share only one vertex (a pinch) is culled when their loops touch only at
-//! that vertex and neither lies inside the other: the projection is then
-//! one-to-one on each and their images meet only at the shared vertex.
+//! (one simple counter-clockwise loop). For the union of two adjacent disks A
+//! and B (glued along edges, or pinched at one vertex) the star test runs on
+//! the union's contour; failing that, A and B are each checked as above and
+//! their loops must meet only along the edges and vertices they share, neither
+//! inside the other: the projection is then one-to-one on each and their images
+//! meet only where the patches themselves meet.
 
-use crate::geom::distance::segment_segment_distance2;
 use crate::mesh::{Csr, Mesh};
 use glam::DVec3;
 
@@ -225,35 +226,38 @@ fn extent2(segs: &[Seg]) -> f64 {
     (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)
 }
 
-/// Squared distance between 2D segments.
-fn seg_dist2(a: &Seg, b: &Seg) -> f64 {
-    let e = |p: [f64; 2]| DVec3::new(p[0], p[1], 0.0);
-    segment_segment_distance2(e(a.p[0]), e(a.p[1]), e(b.p[0]), e(b.p[1])).0
+#[inline]
+fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 
-/// Squared distance from a point to a 2D segment.
-fn point_seg_dist2(p: [f64; 2], s: &Seg) -> f64 {
-    let e = |p: [f64; 2]| DVec3::new(p[0], p[1], 0.0);
-    segment_segment_distance2(e(p), e(p), e(s.p[0]), e(s.p[1])).0
-}
-
-/// True when two projected edges meet only where the mesh says they do: at a
-/// shared vertex (without folding back onto each other), or nowhere, with a
-/// relative clearance `tol2` (squared).
-fn edges_clear(a: &Seg, b: &Seg, tol2: f64) -> bool {
-    let shared = a.v.iter().any(|v| b.v.contains(v));
-    if !shared {
-        return seg_dist2(a, b) > tol2;
-    }
-    // Each far endpoint must stay clear of the other edge.
-    let far = |s: &Seg, other: &Seg| {
-        if other.v.contains(&s.v[0]) {
-            s.p[1]
-        } else {
-            s.p[0]
+/// True when two projected edges meet only where the mesh says they may: not
+/// at all, at their one shared vertex (without folding back onto each other),
+/// or everywhere when they are the same mesh edge (the glue of two patches).
+/// Decided with a margin `eps` on orientation values: near-touching is "not clear".
+fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
+    let shared = |v: u32| b.v.contains(&v);
+    match (shared(a.v[0]), shared(a.v[1])) {
+        (true, true) => true,
+        (false, false) => {
+            let boxes_apart = (0..2).any(|k| {
+                a.p[0][k].max(a.p[1][k]) < b.p[0][k].min(b.p[1][k]) || b.p[0][k].max(b.p[1][k]) < a.p[0][k].min(a.p[1][k])
+            });
+            let side = |s: &Seg, p: [f64; 2]| orient(s.p[0], s.p[1], p);
+            let one_side = |s: &Seg, t: &Seg| {
+                let (x, y) = (side(s, t.p[0]), side(s, t.p[1]));
+                (x > eps && y > eps) || (x < -eps && y < -eps)
+            };
+            boxes_apart || one_side(a, b) || one_side(b, a)
         }
-    };
-    point_seg_dist2(far(a, b), b) > tol2 && point_seg_dist2(far(b, a), a) > tol2
+        (sa0, _) => {
+            // One shared vertex s: the edges leave it in different directions.
+            let (s, fa) = if sa0 { (a.p[0], a.p[1]) } else { (a.p[1], a.p[0]) };
+            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] { b.p[1] } else { b.p[0] };
+            let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
+            orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
+        }
+    }
 }
 
 /// Is the projected contour one simple counter-clockwise loop? Every vertex
@@ -267,7 +271,11 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
     }
     // One cycle: each vertex starts exactly one edge; walk start -> end from
     // the first edge and come back after exactly m steps.
-    let mut by_start: Vec<(u32, u32)> = segs.iter().map(|s| (s.v[0], s.v[1])).collect();
+    let mut buf = [(0u32, 0u32); SIMPLE_LOOP_MAX];
+    let by_start = &mut buf[..m];
+    for (b, s) in by_start.iter_mut().zip(segs) {
+        *b = (s.v[0], s.v[1]);
+    }
     by_start.sort_unstable();
     if by_start.windows(2).any(|w| w[0].0 == w[1].0) {
         return false;
@@ -297,15 +305,23 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
     if !(area2 > 1e-9 * ext2) {
         return false;
     }
-    all_pairs_clear(segs, segs, 1e-18 * ext2)
+    all_pairs_clear(segs, segs, 1e-12 * ext2)
 }
 
 /// Every pair of edges (one from `a`, one from `b`; distinct pairs when they
-/// are the same list) is clear (see `edges_clear`). Sweeps along x, so only
-/// edges whose padded x-ranges overlap are compared.
-fn all_pairs_clear(a: &[Seg], b: &[Seg], tol2: f64) -> bool {
+/// are the same list) is clear (see `edges_clear`). Short lists are compared
+/// directly; longer ones with a sweep along x, comparing only edges whose
+/// x-ranges overlap.
+fn all_pairs_clear(a: &[Seg], b: &[Seg], eps: f64) -> bool {
     let same = std::ptr::eq(a, b);
-    let pad = tol2.sqrt();
+    if a.len() * b.len() <= 256 {
+        return if same {
+            (0..a.len()).all(|i| (i + 1..a.len()).all(|j| edges_clear(&a[i], &a[j], eps)))
+        } else {
+            a.iter().all(|x| b.iter().all(|y| edges_clear(x, y, eps)))
+        };
+    }
+    let pad = 0.0;
     let range = |s: &Seg| {
         (
             s.p[0][0].min(s.p[1][0]) - pad,
@@ -338,7 +354,7 @@ fn all_pairs_clear(a: &[Seg], b: &[Seg], tol2: f64) -> bool {
             if ev[j].0 > ev[i].1 {
                 break;
             }
-            if (same || ev[i].2 != ev[j].2) && !edges_clear(get(&ev[i]), get(&ev[j]), tol2) {
+            if (same || ev[i].2 != ev[j].2) && !edges_clear(get(&ev[i]), get(&ev[j]), eps) {
                 return false;
             }
         }
@@ -360,20 +376,16 @@ fn inside(p: [f64; 2], segs: &[Seg]) -> bool {
     c
 }
 
-/// Two simple counter-clockwise loops meeting at one shared vertex: do their
-/// edges stay clear of each other and neither loop lie inside the other?
-pub fn loops_touch_only_at_shared_vertex(a: &[Seg], b: &[Seg]) -> bool {
-    if a.len() + b.len() > 2 * SIMPLE_LOOP_MAX {
-        return false;
-    }
-    if !all_pairs_clear(a, b, 1e-18 * extent2(a).max(extent2(b))) {
+/// Two simple counter-clockwise loops of adjacent patches: do they meet only
+/// along the mesh edges and vertices they share, with neither inside the other?
+pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg]) -> bool {
+    let eps = 1e-12 * extent2(a).max(extent2(b));
+    if !all_pairs_clear(a, b, eps) {
         return false;
     }
     let outside = |s: &[Seg], loop_: &[Seg]| {
-        let shared = |v: u32| loop_.iter().any(|e| e.v[0] == v);
-        s.iter()
-            .find(|e| !shared(e.v[0]))
-            .is_some_and(|e| !inside(e.p[0], loop_))
+        let on_loop = |v: u32| loop_.iter().any(|e| e.v[0] == v);
+        s.iter().find(|e| !on_loop(e.v[0])).is_some_and(|e| !inside(e.p[0], loop_))
     };
     outside(a, b) && outside(b, a)
 }
@@ -506,10 +518,10 @@ mod tests {
     fn pinched_loops() {
         let a = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
         let b = loop_of(&[[1., 1.], [2., 1.], [2., 2.], [1., 2.]], &[2, 4, 5, 6]);
-        assert!(loops_touch_only_at_shared_vertex(&a, &b));
+        assert!(loops_meet_only_where_shared(&a, &b));
         let inner = loop_of(&[[1., 1.], [0.5, 0.8], [0.8, 0.5]], &[2, 7, 8]);
-        assert!(!loops_touch_only_at_shared_vertex(&a, &inner), "nested");
+        assert!(!loops_meet_only_where_shared(&a, &inner), "nested");
         let crossing = loop_of(&[[1., 1.], [2., 1.], [0.5, 0.5]], &[2, 9, 10]);
-        assert!(!loops_touch_only_at_shared_vertex(&a, &crossing));
+        assert!(!loops_meet_only_where_shared(&a, &crossing));
     }
 }

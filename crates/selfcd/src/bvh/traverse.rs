@@ -12,7 +12,7 @@
 //! same for any number of threads.
 
 use super::contour::{
-    count_common, have_common, loops_touch_only_at_shared_vertex, merge_contours, project_contour,
+    count_common, have_common, loops_meet_only_where_shared, merge_contours, project_contour,
     simple_ccw_loop, star_about, Plane, Seg,
 };
 use super::Bvh;
@@ -252,8 +252,8 @@ impl<V: LeafVisitor> Ctx<'_, V> {
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
-    /// `axis`? Glued along edges: its own contour must be one simple loop.
-    /// Pinched at one vertex: each loop simple, touching only at that vertex.
+    /// `axis`? Fast path: the union's contour is a star. Otherwise each patch's
+    /// loop must be simple and the two loops meet only where the patches do.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, acc: &mut Acc<V::Item>) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
         let info = merge_contours(p.contour_of(a), p.contour_of(b), &mut acc.scratch);
@@ -265,11 +265,14 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         let plane = Plane::new(axis, box_a.union(box_b).center());
         if info.shared_edges > 0 {
-            return self.disk_is_height_field(&acc.scratch, &plane, [0.0; 2], &mut acc.segs);
+            project_contour(self.mesh, self.positions, &acc.scratch, &plane, &mut acc.segs);
+            if star_about(&acc.segs, [0.0; 2]) {
+                return true;
+            }
         }
         let (ca, cb) = (plane.project(box_a.center()), plane.project(box_b.center()));
         self.disk_is_height_field(p.contour_of(a), &plane, ca, &mut acc.segs)
             && self.disk_is_height_field(p.contour_of(b), &plane, cb, &mut acc.segs_b)
-            && loops_touch_only_at_shared_vertex(&acc.segs, &acc.segs_b)
+            && loops_meet_only_where_shared(&acc.segs, &acc.segs_b)
     }
 }

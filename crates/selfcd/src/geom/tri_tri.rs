@@ -14,26 +14,8 @@ use glam::DVec3;
 
 /// True when closed triangles `a` and `b` share at least one point.
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    let da = is_degenerate(a[0], a[1], a[2]);
-    let db = is_degenerate(b[0], b[1], b[2]);
-    match (da, db) {
-        (true, true) => edges(a).iter().any(|ea| {
-            edges(b)
-                .iter()
-                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
-        }),
-        (true, false) => edges(a).iter().any(|e| segment_triangle(e[0], e[1], b)),
-        (false, true) => edges(b).iter().any(|e| segment_triangle(e[0], e[1], a)),
-        (false, false) => proper_triangles_intersect(a, b),
-    }
-}
-
-fn edges(t: &[DVec3; 3]) -> [[DVec3; 2]; 3] {
-    [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]]
-}
-
-/// Both triangles non-degenerate.
-fn proper_triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    // Plane-side rejection first: it settles most pairs, and it is valid for
+    // degenerate triangles too (their orientations are all zero, never one-sided).
     let sb = b.map(|p| orient3d(a[0], a[1], a[2], p));
     if strictly_one_side(sb) {
         return false;
@@ -42,12 +24,25 @@ fn proper_triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     if strictly_one_side(sa) {
         return false;
     }
-    if sb == [0; 3] {
-        let k = dominant_axis(a[0], a[1], a[2]);
-        return triangles_intersect_2d(a.map(|p| project(p, k)), b.map(|p| project(p, k)));
+    let da = is_degenerate(a[0], a[1], a[2]);
+    let db = is_degenerate(b[0], b[1], b[2]);
+    let any_edge = |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
+    match (da, db) {
+        (true, true) => edges(a)
+            .iter()
+            .any(|ea| edges(b).iter().any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))),
+        (true, false) => any_edge(a, b),
+        (false, true) => any_edge(b, a),
+        (false, false) if sb == [0; 3] => {
+            let k = dominant_axis(a[0], a[1], a[2]);
+            triangles_intersect_2d(a.map(|p| project(p, k)), b.map(|p| project(p, k)))
+        }
+        (false, false) => any_edge(a, b) || any_edge(b, a),
     }
-    edges(a).iter().any(|e| segment_triangle(e[0], e[1], b))
-        || edges(b).iter().any(|e| segment_triangle(e[0], e[1], a))
+}
+
+fn edges(t: &[DVec3; 3]) -> [[DVec3; 2]; 3] {
+    [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]]
 }
 
 fn strictly_one_side(s: [i8; 3]) -> bool {
