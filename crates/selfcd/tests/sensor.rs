@@ -191,7 +191,8 @@ fn relaxation_stops_by_n_max_or_n_min() {
 #[test]
 fn sensor_gated_against_brute_counts_what_the_gate_missed() {
     let mesh = square(11, 1.0);
-    let anims: [(&str, Box<dyn Fn(f64) -> Deformation>); 4] = [
+    type Shape = Box<dyn Fn(f64) -> Deformation>;
+    let anims: [(&str, Shape); 4] = [
         ("fold", Box::new(|s| Deformation::Fold { angle: 1.25 * PI * s, radius: 0.05 })),
         ("roll", Box::new(|s| Deformation::Roll { turns: 2.0 * s, gap: 0.02 })),
         ("twist", Box::new(|s| Deformation::Twist { turns: s })),

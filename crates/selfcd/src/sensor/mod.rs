@@ -13,6 +13,9 @@
 //! All lengths the sensor reasons in are in units of the mesh's mean rest edge
 //! length, so its behaviour does not depend on the mesh's scale.
 
+// Guards are written `!(x > limit)` on purpose: they are true for NaN too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod forces;
 pub mod odl;
 pub mod params;
