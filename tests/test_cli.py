@@ -27,11 +27,11 @@ def test_console_script_is_installed() -> None:
     assert exe, f"pip install . should put the selfcd command in {scripts}"
     out = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0
-    for sub in ("demo", "detect", "bench"):
+    for sub in ("demo", "detect", "simulate", "bench"):
         assert sub in out.stdout
 
 
-@pytest.mark.parametrize("sub", ["demo", "detect", "bench"])
+@pytest.mark.parametrize("sub", ["demo", "detect", "simulate", "bench"])
 def test_each_subcommand_has_help(sub: str) -> None:
     out = run(sub, "--help")
     assert out.returncode == 0 and "Usage:" in out.stdout
@@ -96,19 +96,51 @@ def test_demo_writes_report_and_summary(tmp_path: Path) -> None:
     out = run("demo", "--frames", "6", "--out", str(tmp_path / "rep"))
     assert out.returncode == 0, out.stderr
     summary = json.loads((tmp_path / "rep" / "summary.json").read_text())
-    assert len(summary["scenes"]) == 3
+    assert [s["name"] for s in summary["scenes"]] == selfcd.paper_scenes()
+    assert [s["paper_figure"] for s in summary["scenes"]] == [4, 6, 8]
     for scene in summary["scenes"]:
-        assert scene["frames"] == 6
+        assert scene["frames"] == 6 and scene["triangles"] == 200 and scene["proximity_thickness"] > 0
         assert list(scene["methods"]) == selfcd.methods()
         for name, m in scene["methods"].items():
             assert m["frames"] == 6 and m["mean_time_ms"] >= 0 and m["spurious_contacts"] == 0
-            if name not in selfcd.non_conservative_methods():
-                assert m["missed_contacts"] == 0
+            if name in selfcd.non_conservative_methods():
+                assert m["missed_proximity_contacts"] is not None
+            else:
+                assert m["missed_contacts"] == 0 and m["missed_proximity_contacts"] is None
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "Plotly.newPlot" in html and 'id="summary"' in html
     assert "<script src=" not in html and "<link " not in html, "the report must not load anything from the network"
     for m in selfcd.methods():
         assert m in out.stdout
+
+
+def test_simulate_saves_frames_and_stats_that_detect_reads(tmp_path: Path) -> None:
+    out = run("simulate", "--scene", "center", "--frames", "20", "--every", "2", "--out", str(tmp_path / "sim"))
+    assert out.returncode == 0, out.stderr
+    data = np.load(tmp_path / "sim" / "frames.npz")
+    assert data["V"].shape == (20, 121, 3) and data["F"].shape == (200, 3) and data["time"].shape == (20,)
+    assert data["pinned"].sum() == 1
+    assert np.allclose(data["time"][1:] - data["time"][:-1], 2 / 60)
+    stats = json.loads((tmp_path / "sim" / "stats.json").read_text())
+    assert stats["summary"]["steps"] == 38 and len(stats["steps"]["step_time"]) == 38
+    assert len(stats["steps"]["detection"]["primitive_tests"]) == 38
+    assert stats["summary"]["max_intersections"] == 0
+    check = run("detect", "--json", str(tmp_path / "sim" / "frames.npz"))
+    assert check.returncode == 0, "the response leaves no intersection"
+    assert len(json.loads(check.stdout)["files"]) == 20
+
+
+def test_simulate_without_response_passes_through_itself(tmp_path: Path) -> None:
+    out = run("simulate", "--scene", "center", "--frames", "60", "--every", "4", "--no-self-collision",
+              "--out", str(tmp_path / "sim"))
+    assert out.returncode == 0, out.stderr
+    check = run("detect", str(tmp_path / "sim" / "frames.npz"))
+    assert check.returncode == 1 and "frames.npz[59]" in check.stdout
+
+
+def test_simulate_rejects_unknown_scene(tmp_path: Path) -> None:
+    out = run("simulate", "--scene", "hanging", "--frames", "3", "--out", str(tmp_path / "x"))
+    assert out.returncode == 2 and "two-corners" in out.stderr
 
 
 def test_bench_table_and_json(tmp_path: Path) -> None:

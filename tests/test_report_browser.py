@@ -59,7 +59,7 @@ def test_benchmark_charts_draw_every_method(page) -> None:
     for k in range(3):
         names = page.eval_on_selector(f"#bench-{k}", "el => el.data.map(t => t.name)")
         traces = page.locator(f"#bench-{k} .scatterlayer .trace").count()
-        assert "reference contacts" in names and traces >= 2 * 4 + 1, (k, names)
+        assert "intersecting pairs (reference)" in names and "proximity contacts (reference)" in names and traces >= 2 * 4 + 1, (k, names)
         assert page.locator(f"#bench-{k} .scatterlayer path.js-line").count() > 0
 
 

@@ -73,6 +73,13 @@ class Mesh:
         """Mean rest edge length (the particle sensor's length unit)."""
         return self._inner.mean_edge_length
 
+    @classmethod
+    def _wrap(cls, inner: _core.Mesh) -> "Mesh":
+        """A Mesh around an engine mesh that is already validated."""
+        mesh = cls.__new__(cls)
+        mesh._inner = inner
+        return mesh
+
     def __repr__(self) -> str:
         return f"selfcd.Mesh(n_vertices={self.n_vertices}, n_faces={self.n_faces})"
 
@@ -179,3 +186,112 @@ def compare_methods(
 def reference_pairs(mesh: Mesh, frames: npt.ArrayLike) -> list[np.ndarray]:
     """Exact intersecting face pairs of each frame, as a list of (k, 2) int64 arrays."""
     return _core.reference_pairs(mesh._inner, _arrays.frames(frames, mesh.n_vertices))
+
+
+def paper_scenes() -> list[str]:
+    """Names of the paper's cloth scenes: two-corners, corner, center."""
+    return list(_core.paper_scenes())
+
+
+class Simulation:
+    """One of the paper's cloth scenes in motion (mass-spring cloth, implicit Euler,
+    self-collision response driven by a detection method).
+
+    Args:
+        scene: "two-corners", "corner" or "center" (see `paper_scenes()`).
+        resolution: vertices per side of the 1 m square cloth (11: the paper's 200 triangles).
+        method: the detection method driving the collision response.
+        dt: time step in seconds (default 1/60).
+        self_collision: False lets the cloth pass through itself.
+    """
+
+    def __init__(self, scene: str, resolution: int = 11, method: str = DEFAULT_METHOD, dt: float | None = None,
+                 self_collision: bool = True) -> None:
+        for name, value in (("scene", scene), ("method", method)):
+            if not isinstance(value, str):
+                raise TypeError(f"{name} must be a string, got {type(value).__name__}")
+        if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+            raise TypeError(f"resolution must be an integer, got {type(resolution).__name__}")
+        if resolution < 2:
+            raise ValueError(f"resolution must be at least 2 vertices per side, got {resolution}")
+        self._inner = _core.Simulation(scene, int(resolution), method, None if dt is None else float(dt),
+                                       bool(self_collision))
+        self.mesh = Mesh._wrap(self._inner.mesh)
+
+    def step(self) -> dict[str, Any]:
+        """Advances one time step; returns its stats ("detection" holds the detector's FrameStats)."""
+        return self._inner.step()
+
+    def run(self, steps: int, every: int = 1,
+            progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """Runs `steps` steps in the engine, recording positions every `every` steps.
+
+        Returns:
+            frames (f, n, 3) starting with the current state, their times (f,),
+            and per-step stats as arrays ("detection": per-step FrameStats arrays).
+        """
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0, got {steps}")
+        return self._inner.run(int(steps), int(every), progress)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Current positions, (n, 3) float64."""
+        return self._inner.positions
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Current velocities, (n, 3) float64."""
+        return self._inner.velocities
+
+    @property
+    def pinned(self) -> np.ndarray:
+        """Which vertices are pinned, (n,) bool."""
+        return self._inner.pinned
+
+    @property
+    def scene(self) -> str:
+        """The scene's name."""
+        return self._inner.scene
+
+    @property
+    def resolution(self) -> int:
+        """Vertices per side."""
+        return self._inner.resolution
+
+    @property
+    def method(self) -> str:
+        """The detection method driving the response."""
+        return self._inner.method
+
+    @property
+    def dt(self) -> float:
+        """Time step (s)."""
+        return self._inner.dt
+
+    @property
+    def contact_thickness(self) -> float:
+        """Contact thickness d (m): the distance the cloth keeps from itself."""
+        return self._inner.contact_thickness
+
+    @property
+    def contact_distance(self) -> float:
+        """Distance within which the detector reports proximity contacts, d + margin (m)."""
+        return self._inner.contact_distance
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self._inner.time
+
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+        return self._inner.steps
+
+    def energy(self) -> dict[str, float]:
+        """Kinetic, gravitational, elastic and total energy of the current state (J)."""
+        return self._inner.energy()
+
+    def __repr__(self) -> str:
+        return f"selfcd.Simulation(scene={self.scene!r}, resolution={self.resolution}, method={self.method!r})"

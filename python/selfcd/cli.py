@@ -45,31 +45,36 @@ def main() -> None:
 
 def _table(summary: dict[str, Any]) -> str:
     """A short text table: per scene and method, time per frame, primitive tests, misses."""
-    lines = [f"{'scene':<14}{'method':<20}{'mean ms':>9}{'median ms':>11}{'prim. tests':>13}{'missed':>8}{'trig.':>7}"]
+    lines = [f"{'scene':<13}{'method':<19}{'mean ms':>9}{'median ms':>11}{'prim. tests':>13}{'missed int.':>12}"
+             f"{'missed prox.':>13}{'triggered':>10}"]
     for s in summary["scenes"]:
         for m, r in s["methods"].items():
             trig = "-" if r["triggered_frames"] is None else str(r["triggered_frames"])
-            lines.append(f"{s['name']:<14}{m:<20}{r['mean_time_ms']:>9.3f}{r['median_time_ms']:>11.3f}"
-                         f"{r['mean_primitive_tests']:>13.1f}{r['missed_contacts']:>8}{trig:>7}")
+            lines.append(f"{s['name']:<13}{m:<19}{r['mean_time_ms']:>9.3f}{r['median_time_ms']:>11.3f}"
+                         f"{r['mean_primitive_tests']:>13.1f}{r['missed_contacts']:>12}"
+                         f"{'-' if r['missed_proximity_contacts'] is None else r['missed_proximity_contacts']:>13}{trig:>10}")
     return "\n".join(lines)
 
 
 @main.command()
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("selfcd-report"),
               show_default=True, help="Folder for index.html and summary.json.")
-@click.option("--frames", type=click.IntRange(2, 100000), default=None,
-              help="Frames per scene (default: the scene's own length).")
+@click.option("--frames", type=click.IntRange(2, 100000), default=demo_mod.DEFAULT_FRAMES, show_default=True,
+              help=f"Frames recorded per scene, {demo_mod.STEPS_PER_FRAME} simulation steps apart.")
 @click.option("--resolution", type=click.IntRange(3, 400), default=demo_mod.PAPER_RESOLUTION, show_default=True,
               help="Vertices per side of the square cloth (11: the paper's 200 triangles).")
 @click.option("--method", "methods", type=_method_choice(), multiple=True,
               help="Methods to compare (repeatable; default: every method).")
-def demo(out_dir: Path, frames: int | None, resolution: int, methods: tuple[str, ...]) -> None:
-    """Run the paper's three scenes through every detector and write a report.
+def demo(out_dir: Path, frames: int, resolution: int, methods: tuple[str, ...]) -> None:
+    """Run the paper's three cloth scenes through every detector and write a report.
 
-    Each scene is recorded once; every method then runs on the same frames and
-    its misses are counted against the exact reference. Writes OUT/index.html
+    Each scene (cloth pinned at two corners, one corner, the centre) is
+    simulated once; every method then runs on the same recorded frames and its
+    misses are counted against the exact reference. Writes OUT/index.html
     (self-contained, open it in a browser) and OUT/summary.json.
     """
+    from .report import write_report  # plotly is imported only when a report is written
+
     t0 = time.perf_counter()
     chosen = list(methods) or None
     results = []
@@ -79,8 +84,6 @@ def demo(out_dir: Path, frames: int | None, resolution: int, methods: tuple[str,
             results.append(demo_mod.evaluate(scene, chosen, progress=lambda done: bar.update(done - bar.n)))
     meta = {"version": _api_version(), "seconds": time.perf_counter() - t0, "resolution": resolution,
             "note": demo_mod.scenes_note()}
-    from .report import write_report  # plotly is imported only when a report is written
-
     summary = write_report(results, out_dir, meta)
     click.echo(_table(summary))
     click.echo(f"\nReport: {(out_dir / 'index.html').resolve()}  ({time.perf_counter() - t0:.1f} s)")
@@ -104,18 +107,20 @@ def _api_version() -> str:
 def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) -> None:
     """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, ... or .npz with V and F).
 
-    Several files are one animation sharing faces (the first file is the rest
-    shape). Exit status: 0 no intersection, 1 some intersection, 2 bad input.
+    Several files are one animation sharing faces (the first frame is the rest
+    shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, is
+    an animation too. Exit status: 0 no intersection, 1 some intersection,
+    2 bad input.
     """
     try:
-        frames, faces = mesh_io.load_sequence(list(files))
+        frames, faces, labels = mesh_io.load_sequence(list(files))
         det = _api.Detector(_api.Mesh(frames[0], faces), method)
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
     records = []
-    for path, positions in zip(tqdm(files, desc="detect", leave=False, delay=1.0, disable=None), frames):
+    for label, positions in zip(tqdm(labels, desc="detect", leave=False, delay=1.0, disable=None), frames):
         pairs = det.detect(positions)
-        records.append({"file": str(path), "count": int(len(pairs)), "pairs": pairs.tolist(),
+        records.append({"file": label, "count": int(len(pairs)), "pairs": pairs.tolist(),
                         "stats": det.last_stats})
     any_hit = any(r["count"] for r in records)
     if as_json:
@@ -133,6 +138,63 @@ def _print_record(r: dict[str, Any], max_pairs: int) -> None:
     if shown:
         more = f" ... and {r['count'] - len(shown)} more" if r["count"] > len(shown) else ""
         click.echo("  " + " ".join(f"({a},{b})" for a, b in shown) + more)
+
+
+# ---------------------------------------------------------------- simulate
+
+
+@main.command()
+@click.option("--scene", type=click.Choice(_api.paper_scenes()), required=True, help="The paper's cloth scene.")
+@click.option("--frames", type=click.IntRange(1, 1000000), required=True, help="Frames to record.")
+@click.option("--every", type=click.IntRange(1), default=1, show_default=True, help="Simulation steps per frame.")
+@click.option("--resolution", type=click.IntRange(2, 4096), default=demo_mod.PAPER_RESOLUTION, show_default=True,
+              help="Vertices per side of the 1 m square cloth.")
+@click.option("--method", type=_method_choice(), default=_api.DEFAULT_METHOD, show_default=True,
+              help="Detection method driving the self-collision response.")
+@click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None, help="Time step (s); default 1/60.")
+@click.option("--no-self-collision", is_flag=True, help="Let the cloth pass through itself.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output folder (default: ./selfcd-sim-SCENE).")
+def simulate(scene: str, frames: int, every: int, resolution: int, method: str, dt: float | None,
+             no_self_collision: bool, out_dir: Path | None) -> None:
+    """Simulate one of the paper's cloth scenes; save the frames and per-step stats.
+
+    Writes OUT/frames.npz (V: frames x vertices x 3, F: faces, time, pinned)
+    and OUT/stats.json (per-step solver, contact and detection stats). The
+    frames can be checked with `selfcd detect OUT/frames.npz`.
+    """
+    out_dir = out_dir or Path(f"selfcd-sim-{scene}")
+    sim = _api.Simulation(scene, resolution, method, dt=dt, self_collision=not no_self_collision)
+    steps = (frames - 1) * every
+    with _bar(steps, f"{scene}: simulate") as bar:
+        positions, times, stats = sim.run(steps, every, lambda done: bar.update(done - bar.n))
+    summary = _write_simulation(out_dir, sim, positions, times, stats)
+    click.echo(f"{scene}: {summary['steps']} steps of {sim.dt * 1e3:.2f} ms, {sim.mesh.n_faces} triangles, "
+               f"method {method}")
+    click.echo(f"  mean step {summary['mean_step_ms']:.2f} ms (detection {summary['mean_detect_ms']:.2f} ms); "
+               f"steps with contacts {summary['steps_with_contacts']}; intersections left {summary['max_intersections']}")
+    click.echo(f"  frames: {out_dir / 'frames.npz'}  stats: {out_dir / 'stats.json'}")
+
+
+def _write_simulation(out_dir: Path, sim: _api.Simulation, positions: np.ndarray, times: np.ndarray,
+                 stats: dict[str, Any]) -> dict[str, Any]:
+    """Writes frames.npz and stats.json for a finished run; returns the summary."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out_dir / "frames.npz", V=positions, F=sim.mesh.faces, time=times, pinned=sim.pinned)
+    detection = stats.pop("detection")
+    n = len(stats["step_time"])
+    summary = {
+        "scene": sim.scene, "resolution": sim.resolution, "method": sim.method, "dt": sim.dt, "steps": n,
+        "frames": int(len(positions)), "contact_thickness": sim.contact_thickness,
+        "mean_step_ms": float(np.mean(stats["step_time"]) * 1e3) if n else 0.0,
+        "mean_detect_ms": float(np.mean(stats["detect_time"]) * 1e3) if n else 0.0,
+        "steps_with_contacts": int(np.count_nonzero(stats["contacts"])),
+        "max_intersections": int(np.max(stats["intersections"], initial=0)),
+    }
+    per_step = {k: np.asarray(v).tolist() for k, v in stats.items()}
+    per_step["detection"] = {k: np.asarray(v).tolist() for k, v in detection.items()}
+    (out_dir / "stats.json").write_text(json.dumps({"summary": summary, "steps": per_step}, indent=1))
+    return summary
 
 
 # ---------------------------------------------------------------- bench

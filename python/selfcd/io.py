@@ -1,5 +1,5 @@
 """Reading meshes and animations: OBJ, PLY and the other formats trimesh reads,
-and .npz archives holding arrays V (vertices) and F (faces)."""
+and .npz archives holding arrays V (vertices, (n,3) or (frames,n,3)) and F (faces)."""
 
 from __future__ import annotations
 
@@ -43,24 +43,31 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return _load_trimesh(path)
 
 
-def load_sequence(paths: list[str | Path]) -> tuple[np.ndarray, np.ndarray]:
-    """An animation from files sharing faces: (frames (f,n,3), faces (m,3)).
+def load_sequence(paths: list[str | Path]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """An animation from files sharing faces: (frames (f,n,3), faces (m,3), frame labels).
 
-    Raises MeshFileError when a file's faces differ from the first file's.
+    A .npz whose V has shape (f,n,3) (as `selfcd simulate` writes) is f frames,
+    labelled "file[k]". Raises MeshFileError when a file's faces or vertex
+    count differ from the first file's.
     """
-    frames, faces = [], None
+    frames: list[np.ndarray] = []
+    labels: list[str] = []
+    faces = None
     for p in paths:
         v, f = load_mesh(p)
         if faces is None:
             faces = f
         elif f.shape != faces.shape or not np.array_equal(f, faces):
             raise MeshFileError(f"{p}: faces differ from {paths[0]}; a sequence must share its faces")
-        if frames and v.shape != frames[0].shape:
-            raise MeshFileError(f"{p}: {len(v)} vertices, but {paths[0]} has {len(frames[0])}")
-        frames.append(v)
+        many = v.ndim == 3
+        for k, frame in enumerate(v if many else [v]):
+            if frames and frame.shape != frames[0].shape:
+                raise MeshFileError(f"{p}: {len(frame)} vertices, but {paths[0]} has {len(frames[0])}")
+            frames.append(frame)
+            labels.append(f"{p}[{k}]" if many else str(p))
     if faces is None:
         raise MeshFileError("no files given")
-    return np.stack(frames), faces
+    return np.stack(frames), faces, labels
 
 
 def save_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> None:

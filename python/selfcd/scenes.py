@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from . import _arrays, _core
+from . import _api, _arrays, _core
 
 SHAPES = ("flat", "fold", "zfold", "crumple", "twist", "roll", "noise")
 
@@ -29,3 +29,16 @@ def deform(rest: npt.ArrayLike, shape: str, **params: Any) -> np.ndarray:
     twist(turns), roll(turns, gap), noise(amplitude, seed).
     """
     return _core.deform(_arrays.points(rest, "rest"), shape, **params)
+
+
+def paper_names() -> list[str]:
+    """The paper's cloth scenes: two-corners (figure 3), corner (figure 5), center (figure 7)."""
+    return _api.paper_scenes()
+
+
+def paper(name: str, resolution: int = 11, method: str = _api.DEFAULT_METHOD, **options: Any) -> _api.Simulation:
+    """A simulation of the paper's scene `name` at `resolution` vertices per side.
+
+    `options` go to `selfcd.Simulation` (dt, self_collision).
+    """
+    return _api.Simulation(name, resolution, method, **options)

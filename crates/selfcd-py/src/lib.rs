@@ -6,6 +6,7 @@
 //! a `RuntimeError` instead of unwinding into the interpreter.
 
 mod bench;
+mod cloth;
 mod compare;
 mod convert;
 mod detector;
@@ -43,6 +44,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(non_conservative_methods, m)?)?;
     m.add_function(wrap_pyfunction!(sensor_options, m)?)?;
     m.add_class::<mesh::PyMesh>()?;
+    m.add_class::<cloth::PySimulation>()?;
+    m.add_function(wrap_pyfunction!(cloth::paper_scenes, m)?)?;
     m.add_class::<detector::PyDetector>()?;
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;

@@ -1,0 +1,249 @@
+//! The cloth simulator (engine `cloth`): the paper's scenes and `Simulation`.
+
+use crate::convert::points_array;
+use crate::detector::parse_method;
+use crate::errors::{engine_err, guard};
+use crate::mesh::PyMesh;
+use crate::stats::{stats_columns, stats_dict};
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use selfcd::cloth::{Material, PaperScene, SimOptions, Simulation, StepStats};
+use selfcd::DVec3;
+use std::sync::{Mutex, MutexGuard};
+
+/// Names of the paper's cloth scenes, in the paper's order.
+#[pyfunction]
+pub fn paper_scenes() -> Vec<&'static str> {
+    PaperScene::ALL.iter().map(|s| s.name()).collect()
+}
+
+/// Scalar fields of StepStats (the detection stats are kept apart).
+fn step_fields(s: &StepStats) -> [(&'static str, f64); 13] {
+    [
+        ("iterations", s.iterations as f64),
+        ("residual", s.residual),
+        ("contacts", s.contacts as f64),
+        ("vertex_triangle", s.vertex_triangle as f64),
+        ("constrained", s.constrained as f64),
+        ("impulses", s.impulses as f64),
+        ("reverted", s.reverted as f64),
+        ("correction_rounds", s.correction_rounds as f64),
+        ("intersections", s.intersections as f64),
+        ("solve_time", s.solve_time),
+        ("detect_time", s.detect_time),
+        ("response_time", s.response_time),
+        ("step_time", s.step_time),
+    ]
+}
+
+/// True for the fields that are counts (exported as int64).
+fn is_count(name: &str) -> bool {
+    !matches!(name, "residual" | "solve_time" | "detect_time" | "response_time" | "step_time")
+}
+
+/// One step's stats as a dict, with `detection` the FrameStats dict.
+fn step_dict<'py>(py: Python<'py>, s: &StepStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (k, v) in step_fields(s) {
+        if is_count(k) {
+            d.set_item(k, v as i64)?;
+        } else {
+            d.set_item(k, v)?;
+        }
+    }
+    d.set_item("detection", stats_dict(py, &s.detection)?)?;
+    Ok(d)
+}
+
+/// Many steps' stats as per-field arrays, with `detection` per-field arrays too.
+fn step_columns<'py>(py: Python<'py>, steps: &[StepStats]) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let rows: Vec<_> = steps.iter().map(step_fields).collect();
+    for (col, (name, _)) in step_fields(&StepStats::default()).iter().enumerate() {
+        let vals = rows.iter().map(|r| r[col].1);
+        if is_count(name) {
+            d.set_item(*name, PyArray1::from_vec(py, vals.map(|v| v as i64).collect()))?;
+        } else {
+            d.set_item(*name, PyArray1::from_vec(py, vals.collect()))?;
+        }
+    }
+    let det: Vec<_> = steps.iter().map(|s| &s.detection).collect();
+    d.set_item("detection", stats_columns(py, &det)?)?;
+    Ok(d)
+}
+
+/// A cloth in motion: one of the paper's scenes, stepped with a detection method.
+#[pyclass(name = "Simulation", module = "selfcd._core", frozen)]
+pub struct PySimulation {
+    sim: Mutex<Simulation>,
+    scene: PaperScene,
+    resolution: usize,
+}
+
+impl PySimulation {
+    fn lock(&self) -> PyResult<MutexGuard<'_, Simulation>> {
+        self.sim.lock().map_err(|_| PyRuntimeError::new_err("simulation is unusable after an internal error"))
+    }
+}
+
+/// Frames recorded by `Simulation.run`, and every step's stats.
+type Recording = (Vec<Vec<DVec3>>, Vec<f64>, Vec<StepStats>);
+
+#[pymethods]
+impl PySimulation {
+    /// The paper's scene `scene` at `resolution` x `resolution` vertices, detecting with `method`.
+    /// `dt` overrides the time step (default 1/60 s); `self_collision=False` lets the cloth pass through itself.
+    #[new]
+    #[pyo3(signature = (scene, resolution = 11, method = "bvh-cones-contour", dt = None, self_collision = true))]
+    fn new(scene: &str, resolution: usize, method: &str, dt: Option<f64>, self_collision: bool) -> PyResult<Self> {
+        let sc: PaperScene = scene.parse().map_err(engine_err)?;
+        let m = parse_method(method)?;
+        let sim = guard("Simulation()", || {
+            let cloth = sc.cloth(resolution, Material::default())?;
+            let mut opts = SimOptions::for_cloth(&cloth);
+            opts.dt = dt.unwrap_or(opts.dt);
+            opts.self_collision = self_collision;
+            Simulation::new(cloth, m, opts)
+        })?;
+        Ok(PySimulation { sim: Mutex::new(sim), scene: sc, resolution })
+    }
+
+    /// Advances one time step; returns its stats (a dict, `detection` holding the FrameStats).
+    fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let st = py.detach(|| -> PyResult<StepStats> {
+            let mut sim = self.lock()?;
+            guard("Simulation.step", || sim.step())
+        })?;
+        step_dict(py, &st)
+    }
+
+    /// Runs `steps` steps, recording positions every `every` steps (and the start).
+    /// Returns (frames (f,n,3), times (f,), stats: per-step arrays). `progress`, if
+    /// given, is called with the number of steps done.
+    #[pyo3(signature = (steps, every = 1, progress = None))]
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        steps: usize,
+        every: usize,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        if every == 0 {
+            return Err(PyValueError::new_err("every must be at least 1"));
+        }
+        let mut cb_err = None;
+        let (frames, times, stats): Recording = py.detach(|| -> PyResult<Recording> {
+            let mut sim = self.lock()?;
+            let (mut frames, mut times) = (vec![sim.positions().to_vec()], vec![sim.time()]);
+            let mut stats = Vec::with_capacity(steps);
+            for k in 1..=steps {
+                stats.push(guard("Simulation.run", || sim.step())?);
+                if k % every == 0 {
+                    frames.push(sim.positions().to_vec());
+                    times.push(sim.time());
+                }
+                crate::compare::report(&progress, k, &mut cb_err);
+                if cb_err.is_some() {
+                    break;
+                }
+            }
+            Ok((frames, times, stats))
+        })?;
+        if let Some(e) = cb_err {
+            return Err(e);
+        }
+        let n = frames.first().map_or(0, |f| f.len());
+        let flat: Vec<f64> = frames.iter().flatten().flat_map(|p| p.to_array()).collect();
+        let arr = PyArray1::from_vec(py, flat).reshape([frames.len(), n, 3])?.into_any();
+        Ok((arr, PyArray1::from_vec(py, times).into_any(), step_columns(py, &stats)?))
+    }
+
+    /// Current positions, (n,3) float64.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        points_array(py, self.lock()?.positions())
+    }
+
+    /// Current velocities, (n,3) float64.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        points_array(py, self.lock()?.velocities())
+    }
+
+    /// The cloth's mesh (rest shape and faces).
+    #[getter]
+    fn mesh(&self) -> PyResult<PyMesh> {
+        Ok(PyMesh { inner: self.lock()?.cloth().mesh().clone() })
+    }
+
+    /// Which vertices are pinned, (n,) bool.
+    #[getter]
+    fn pinned<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(PyArray1::from_vec(py, self.lock()?.cloth().pinned().to_vec()).into_any())
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn scene(&self) -> &'static str {
+        self.scene.name()
+    }
+
+    /// Vertices per side.
+    #[getter]
+    fn resolution(&self) -> usize {
+        self.resolution
+    }
+
+    /// The detection method driving the collision response.
+    #[getter]
+    fn method(&self) -> PyResult<&'static str> {
+        Ok(self.lock()?.method().name())
+    }
+
+    /// Time step (s).
+    #[getter]
+    fn dt(&self) -> PyResult<f64> {
+        Ok(self.lock()?.options().dt)
+    }
+
+    /// Contact thickness d (m): the distance the cloth keeps from itself.
+    #[getter]
+    fn contact_thickness(&self) -> PyResult<f64> {
+        Ok(self.lock()?.options().contact.thickness)
+    }
+
+    /// Distance the detector reports proximity contacts within, d + margin (m).
+    #[getter]
+    fn contact_distance(&self) -> PyResult<f64> {
+        Ok(self.lock()?.options().contact.detection_distance())
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.lock()?.time())
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn steps(&self) -> PyResult<u64> {
+        Ok(self.lock()?.steps())
+    }
+
+    /// Energy of the current state: dict of kinetic, gravity, elastic, total (J).
+    fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let e = self.lock()?.energy();
+        let d = PyDict::new(py);
+        d.set_item("kinetic", e.kinetic)?;
+        d.set_item("gravity", e.gravity)?;
+        d.set_item("elastic", e.elastic)?;
+        d.set_item("total", e.total())?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Simulation(scene={:?}, resolution={})", self.scene.name(), self.resolution)
+    }
+}
