@@ -1,6 +1,6 @@
-//! The paper's method, `sensor-gated`: refit the BVH, relax the particle
-//! sensor, and run the BVH self-traversal only on frames where the sensor
-//! triggers. Not conservative: on frames the sensor does not trigger, contacts
+//! The paper's method, `sensor-gated`: relax the particle sensor, and refit
+//! and traverse the BVH only on frames where the sensor triggers (or refit
+//! every frame, with `SensorParams::refit_every_frame`). Not conservative: on frames the sensor does not trigger, contacts
 //! are not looked for. [`super::compare::compare_methods`] counts what it misses.
 
 use super::hierarchy::BvhDetector;
