@@ -11,6 +11,7 @@ mod compare;
 mod convert;
 mod detector;
 mod errors;
+mod inspect;
 mod mesh;
 mod scene;
 mod stats;
@@ -47,6 +48,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<cloth::PySimulation>()?;
     m.add_function(wrap_pyfunction!(cloth::paper_scenes, m)?)?;
     m.add_class::<detector::PyDetector>()?;
+    m.add_class::<inspect::PyHierarchy>()?;
+    m.add_function(wrap_pyfunction!(inspect::sensor_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;
     m.add_function(wrap_pyfunction!(compare::reference_pairs, m)?)?;
