@@ -99,6 +99,12 @@ pub fn build(mesh: &Mesh) -> Bvh {
         if matched.is_empty() {
             matched = spatial_pairs(&active, &boxes);
         }
+        // Number parents in the order of their children, so that refitting a
+        // level reads the previous levels almost sequentially (cache locality).
+        for m in matched.iter_mut() {
+            *m = (m.0.min(m.1), m.0.max(m.1));
+        }
+        matched.sort_unstable();
         for &(a, b) in &matched {
             let p = (n + children.len()) as u32;
             children.push([a, b]);

@@ -66,10 +66,15 @@ impl Angle {
         self.s < 0.0 || (self.s == 0.0 && self.c < 0.0)
     }
 
-    /// x <= y for angles in [0, PI].
+    /// x <= y for angles in [0, PI]: by sine on [0, PI/2] (cosine is flat near
+    /// 0, sine is not), by cosine beyond.
     #[inline]
     fn le(self, y: Angle) -> bool {
-        self.c >= y.c
+        match (self.c >= 0.0, y.c >= 0.0) {
+            (true, true) => self.s <= y.s,
+            (false, false) => self.c >= y.c,
+            (small, _) => small,
+        }
     }
 
     /// Widened by a tiny angle `e` (first order, conservative for e << 1).
@@ -114,18 +119,16 @@ impl NormalCone {
     pub fn of_triangle(a: DVec3, b: DVec3, c: DVec3) -> NormalCone {
         let (e1, e2) = (b - a, c - a);
         let n = e1.cross(e2);
-        let len = n.length();
-        let scale = e1.length() * e2.length();
-        if !(len > 64.0 * f64::EPSILON * scale) {
+        let len2 = n.length_squared();
+        let scale2 = e1.length_squared() * e2.length_squared();
+        if !(len2 > (64.0 * f64::EPSILON) * (64.0 * f64::EPSILON) * scale2) {
             return NormalCone::FULL;
         }
         // |computed - exact| <= ~4 eps |e1||e2| per component: an angle of at
         // most asin(x) <= 1.06 x for x = 8 eps |e1||e2| / |n| <= 1/8.
-        let err = 1.06 * 8.0 * f64::EPSILON * scale / len;
-        NormalCone {
-            axis: n / len,
-            half: Angle::ZERO.widen(err),
-        }
+        let inv = 1.0 / len2.sqrt();
+        let err = 1.06 * 8.0 * f64::EPSILON * scale2.sqrt() * inv;
+        NormalCone { axis: n * inv, half: Angle::ZERO.widen(err) }
     }
 
     /// A cone from an axis (normalised here) and a half-angle in radians.
@@ -238,6 +241,15 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn nearly_equal_axes_merge_to_a_tight_cone() {
+        // Axes equal up to rounding (not exactly unit): must not blow up to the full cone.
+        let a = NormalCone { axis: DVec3::new(0.0, 0.0, 0.9999999999999999), half: Angle { c: 1.0, s: 1.9e-15 } };
+        let b = NormalCone { axis: DVec3::new(0.0, -0.0, 0.9999999999999999), half: Angle { c: 1.0, s: 2.7e-15 } };
+        let m = a.merge(&b);
+        assert!(m.is_positive() && m.half_angle() < 1e-12, "{m:?}");
     }
 
     #[test]
