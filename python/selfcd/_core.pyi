@@ -80,3 +80,63 @@ def grid(n: int, size: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
 
 def deform(rest: np.ndarray, shape: str, **params: float) -> np.ndarray:
     """Positions of a flat rest shape put into an analytic shape."""
+
+def paper_scenes() -> list[str]:
+    """Names of the paper's cloth scenes, in the paper's order."""
+
+class Simulation:
+    """One of the paper's cloth scenes in motion, stepped with a detection method."""
+
+    def __init__(self, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
+                 dt: float | None = None, self_collision: bool = True) -> None:
+        """Builds the scene's cloth and simulator."""
+    def step(self) -> dict[str, Any]:
+        """Advances one time step; returns its stats."""
+    def run(self, steps: int, every: int = 1, progress: Callable[[int], object] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """Runs `steps` steps: (frames (f,n,3), times (f,), per-step stats arrays)."""
+    @property
+    def positions(self) -> np.ndarray:
+        """Current positions, (n,3)."""
+    @property
+    def velocities(self) -> np.ndarray:
+        """Current velocities, (n,3)."""
+    @property
+    def mesh(self) -> Mesh:
+        """The cloth's mesh."""
+    @property
+    def pinned(self) -> np.ndarray:
+        """Pinned vertices, (n,) bool."""
+    @property
+    def scene(self) -> str:
+        """The scene's name."""
+    @property
+    def resolution(self) -> int:
+        """Vertices per side."""
+    @property
+    def method(self) -> str:
+        """The detection method driving the response."""
+    @property
+    def dt(self) -> float:
+        """Time step (s)."""
+    @property
+    def contact_thickness(self) -> float:
+        """Contact thickness d (m)."""
+    @property
+    def contact_distance(self) -> float:
+        """Proximity detection distance d + margin (m)."""
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+    def energy(self) -> dict[str, float]:
+        """Kinetic, gravity, elastic and total energy (J)."""
+
+def bench_states() -> list[str]:
+    """Names of the scaling benchmark's states."""
+
+def bench_scaling(sizes: list[int], states: list[str], methods: list[str], reps: int = 3,
+                  progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:
+    """The engine's scaling benchmark: one dict per (size, state, method)."""

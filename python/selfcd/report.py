@@ -144,6 +144,7 @@ def playback_figure(result: SceneResult) -> go.Figure:
         title=dict(text=_frame_title(result, int(picks[0])), font=dict(size=13)),
         scene=dict(xaxis=dict(range=[lo[0] - pad, hi[0] + pad]), yaxis=dict(range=[lo[1] - pad, hi[1] + pad]),
                    zaxis=dict(range=[lo[2] - pad, hi[2] + pad]), aspectmode="manual",
+                   camera=dict(eye=dict(x=1.05, y=-1.35, z=0.75)),
                    aspectratio=dict(zip("xyz", (span + 2 * pad) / (span.max() + 2 * pad)))),
         updatemenus=[dict(type="buttons", x=0.02, y=0.02, xanchor="left", yanchor="bottom", buttons=[
             dict(label="Play", method="animate",
