@@ -140,3 +140,24 @@ def bench_states() -> list[str]:
 def bench_scaling(sizes: list[int], states: list[str], methods: list[str], reps: int = 3,
                   progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:
     """The engine's scaling benchmark: one dict per (size, state, method)."""
+
+def sensor_defaults() -> dict[str, Any]:
+    """Default values of the particle sensor's options, as a dict."""
+
+class Hierarchy:
+    """The bottom-up BVH of one mesh (as the BVH detectors build it), refitted on demand."""
+
+    def __init__(self, mesh: Mesh) -> None:
+        """Builds the hierarchy of `mesh` on its rest shape."""
+    def refit(self, positions: np.ndarray) -> None:
+        """Refits every box and cone to (n,3) float64 positions."""
+    @property
+    def max_depth(self) -> int:
+        """Depth of the deepest leaf (root: 0)."""
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes."""
+    def boxes(self, depth: int) -> np.ndarray:
+        """Boxes of the cut at `depth`, (k,2,3) float64 [min, max]."""
+    def positive_cones(self, depth: int) -> np.ndarray:
+        """For each node of the cut at `depth`: is its normal cone under 90 degrees, (k,) bool."""
