@@ -4,7 +4,7 @@
 //! (this is how the defaults in `sensor/params.rs` were chosen).
 //!
 //! ```text
-//! cargo run --release -p selfcd --example sensor_sweep [-- --sweep] [--big]
+//! cargo run --release -p selfcd --example sensor_sweep [-- [--big] [--count K] | --sweep [--fine]]
 //! ```
 
 use glam::DQuat;
@@ -280,7 +280,9 @@ fn main() {
         if args.iter().any(|a| a == "--sweep") {
             sweep(&mesh, frames);
         } else {
-            report(&mesh, frames, &SensorParams::default(), "default");
+            let count = args.iter().position(|a| a == "--count").and_then(|i| args.get(i + 1)?.parse().ok());
+            let p = SensorParams { count: count.unwrap_or(4), ..Default::default() };
+            report(&mesh, frames, &p, &format!("defaults, k {}", p.count));
         }
     }
 }
