@@ -212,8 +212,8 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
     crossings == 1
 }
 
-/// Squared size of the projected contour's bounding box diagonal.
-fn extent2(segs: &[Seg]) -> f64 {
+/// Bounding box of projected edges.
+fn seg_bounds(segs: &[Seg]) -> ([f64; 2], [f64; 2]) {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for s in segs {
         for p in s.p {
@@ -223,6 +223,12 @@ fn extent2(segs: &[Seg]) -> f64 {
             }
         }
     }
+    (lo, hi)
+}
+
+/// Squared size of the projected contour's bounding box diagonal.
+fn extent2(segs: &[Seg]) -> f64 {
+    let (lo, hi) = seg_bounds(segs);
     (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)
 }
 
@@ -314,12 +320,20 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
 /// x-ranges overlap.
 fn all_pairs_clear(a: &[Seg], b: &[Seg], eps: f64) -> bool {
     let same = std::ptr::eq(a, b);
-    if a.len() * b.len() <= 256 {
-        return if same {
-            (0..a.len()).all(|i| (i + 1..a.len()).all(|j| edges_clear(&a[i], &a[j], eps)))
-        } else {
-            a.iter().all(|x| b.iter().all(|y| edges_clear(x, y, eps)))
-        };
+    if same && a.len() <= 24 {
+        return (0..a.len()).all(|i| (i + 1..a.len()).all(|j| edges_clear(&a[i], &a[j], eps)));
+    }
+    if !same {
+        let (small, big) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+        if small.len() <= 16 {
+            // Only edges of the long loop near the short one can touch it.
+            let (lo, hi) = seg_bounds(small);
+            return big.iter().all(|x| {
+                let (xl, xh) = seg_bounds(std::slice::from_ref(x));
+                let near = (0..2).all(|k| xl[k] <= hi[k] && lo[k] <= xh[k]);
+                !near || small.iter().all(|y| edges_clear(x, y, eps))
+            });
+        }
     }
     let pad = 0.0;
     let range = |s: &Seg| {
