@@ -234,5 +234,93 @@ def bench(sizes: str, states: str | None, methods: tuple[str, ...], repeats: int
         click.echo(f"\nJSON: {json_path}")
 
 
+# ---------------------------------------------------------------- view
+
+
+def _size(value: str) -> tuple[int, int]:
+    """Parses WIDTHxHEIGHT."""
+    try:
+        w, h = (int(x) for x in value.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"expected WIDTHxHEIGHT, e.g. 1024x768, got {value!r}", param_hint="--size") from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise click.BadParameter(f"each side must be in 16..8192, got {value!r}", param_hint="--size")
+    return w, h
+
+
+@main.command()
+@click.argument("files", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--scene", type=click.Choice(_api.paper_scenes()), default=None,
+              help="Simulate one of the paper's cloth scenes live (instead of FILES).")
+@click.option("--resolution", type=click.IntRange(3, 400), default=11, show_default=True,
+              help="Vertices per side of the cloth (11: the paper's 200 triangles).")
+@click.option("--method", type=_method_choice(), default=None,
+              help="Detection method shown (default: sensor-gated for a scene, so its particles show; "
+                   f"{_api.DEFAULT_METHOD} for files).")
+@click.option("--response-method", type=_method_choice(), default=_api.DEFAULT_METHOD, show_default=True,
+              help="Method inside the simulator's collision response (scenes only).")
+@click.option("--thickness", type=click.FloatRange(0), default=None,
+              help="Proximity distance in metres: faces closer show orange (default: the simulator's contact "
+                   "distance for a scene, 0 for files: intersections only, in red).")
+@click.option("--bvh-depth", type=click.IntRange(0), default=None,
+              help="Show the BVH boxes this deep below the root (green: normal cone under 90 degrees).")
+@click.option("--frames", type=click.IntRange(0), default=0, show_default=True,
+              help="Frames to advance before the window opens or the screenshot is taken.")
+@click.option("--screenshot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Render without a window (EGL, no display needed), save this .png (or .jpg) and exit.")
+@click.option("--size", default="1024x768", show_default=True, help="Window or screenshot size, WIDTHxHEIGHT.")
+@click.option("--with-panel", is_flag=True, help="Include the control panel in the screenshot.")
+@click.option("--paused", is_flag=True, help="Open the window paused (default: playing).")
+def view(files: tuple[Path, ...], scene: str | None, resolution: int, method: str | None, response_method: str,
+         thickness: float | None, bvh_depth: int | None, frames: int, screenshot: Path | None, size: str,
+         with_panel: bool, paused: bool) -> None:
+    """Watch a cloth scene live, or mesh FILES, in an interactive polyscope window.
+
+    `selfcd view --scene center` simulates the paper's scene and shows the
+    cloth, the sensor particles (yellow spheres), faces in contact (orange:
+    closer than the thickness, red: intersecting) and, on request, BVH boxes.
+    The panel has play/pause, step, reset, the method, the thickness, the
+    sensor's parameters, live stats and their history.
+
+    `selfcd view FILE...` shows a mesh, or an animation (several files sharing
+    faces, or an .npz from `selfcd simulate`), with its self-intersections in red.
+
+    With --screenshot PATH no window opens: polyscope renders headless on EGL
+    (Mesa is enough, no GPU or display needed) after --frames frames and saves
+    the image. polyscope is imported only by this command.
+    """
+    from . import viewer as viewer_mod  # polyscope is imported only when the viewer runs
+
+    if (scene is None) == (not files):
+        raise click.UsageError("give either --scene NAME or mesh FILES (not both)")
+    dims = _size(size)
+    try:
+        if scene is not None:
+            source: viewer_mod.Source = viewer_mod.ClothSource(scene, resolution, response_method)
+            default_method, default_thickness = viewer_mod.SENSOR_METHOD, source.sim.contact_distance
+        else:
+            seq, faces, labels = mesh_io.load_sequence(list(files))
+            source = viewer_mod.FramesSource(seq, faces, labels)
+            default_method, default_thickness = _api.DEFAULT_METHOD, 0.0
+        v = viewer_mod.Viewer(source, method or default_method,
+                              default_thickness if thickness is None else thickness)
+        v.set_bvh_depth(bvh_depth)
+    except (ValueError, TypeError) as exc:
+        raise InputError(str(exc)) from None
+    viewer_mod.run_frames(v, frames)
+    try:
+        if screenshot is not None:
+            path = viewer_mod.screenshot(v, screenshot, dims, include_ui=with_panel)
+            s = v.summary()
+            click.echo(f"{path}  (frame {s['frame']}, {s['method']}: {s['intersecting_pairs']} intersecting pairs, "
+                       f"{s['near_faces']} near faces, {s['particles']} particles)")
+        else:
+            if not paused:
+                v.play()
+            viewer_mod.show(v, dims)
+    except viewer_mod.ViewerError as exc:
+        raise click.ClickException(str(exc)) from None
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()
