@@ -30,8 +30,13 @@ echo "== pip install .[test]"
 "$PY" -m pip install --disable-pip-version-check --progress-bar off ".[test]"
 command -v pyenv >/dev/null && pyenv rehash || true
 
+# Both suites run even when the first fails; the script fails if either did.
+status=0
 echo "== cargo test --workspace"
-cargo test --workspace
+cargo test --workspace || status=1
 
 echo "== pytest"
-"$PY" -m pytest -q tests
+"$PY" -m pytest -q tests || status=1
+
+[ "$status" -eq 0 ] || echo "== FAILED: see the cargo test or pytest output above" >&2
+exit "$status"

@@ -90,6 +90,11 @@ def test_detect_bad_inputs_exit_2(obj_files, tmp_path: Path) -> None:
     assert out.returncode == 2 and "needs arrays V and F" in out.stderr
     out = run("detect", "--method", "nope", str(obj_files["flat"]))
     assert out.returncode == 2 and "nope" in out.stderr
+    V, F = selfcd.scenes.grid(4)
+    nan_frames = tmp_path / "nan.npz"
+    np.savez(nan_frames, V=np.stack([V, np.full_like(V, np.nan)]), F=F)
+    out = run("detect", str(nan_frames))
+    assert out.returncode == 2 and "nan.npz[1]" in out.stderr and "non-finite" in out.stderr
 
 
 def test_demo_writes_report_and_summary(tmp_path: Path) -> None:

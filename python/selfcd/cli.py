@@ -119,7 +119,10 @@ def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) 
         raise InputError(str(exc)) from None
     records = []
     for label, positions in zip(tqdm(labels, desc="detect", leave=False, delay=1.0, disable=None), frames):
-        pairs = det.detect(positions)
+        try:
+            pairs = det.detect(positions)
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"{label}: {exc}") from None
         records.append({"file": label, "count": int(len(pairs)), "pairs": pairs.tolist(),
                         "stats": det.last_stats})
     any_hit = any(r["count"] for r in records)
@@ -164,7 +167,10 @@ def simulate(scene: str, frames: int, every: int, resolution: int, method: str, 
     frames can be checked with `selfcd detect OUT/frames.npz`.
     """
     out_dir = out_dir or Path(f"selfcd-sim-{scene}")
-    sim = _api.Simulation(scene, resolution, method, dt=dt, self_collision=not no_self_collision)
+    try:
+        sim = _api.Simulation(scene, resolution, method, dt=dt, self_collision=not no_self_collision)
+    except (ValueError, TypeError) as exc:
+        raise InputError(str(exc)) from None
     steps = (frames - 1) * every
     with _bar(steps, f"{scene}: simulate") as bar:
         positions, times, stats = sim.run(steps, every, lambda done: bar.update(done - bar.n))
