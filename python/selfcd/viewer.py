@@ -36,7 +36,7 @@ from . import _api, _core
 # Colours (linear RGB in [0, 1]). The cloth is a saturated blue so that a test
 # can find it in a screenshot by hue; contact colours have other hues.
 CLOTH_COLOR = (0.16, 0.42, 0.90)
-NEAR_COLOR = (1.00, 0.60, 0.05)
+NEAR_COLOR = (1.00, 0.50, 0.00)
 HIT_COLOR = (0.90, 0.08, 0.08)
 PARTICLE_COLOR = (0.98, 0.85, 0.10)
 BOX_COLOR = (0.45, 0.45, 0.50)
@@ -84,6 +84,10 @@ class Source:
         """Stats of the last simulation step (cloth only), else None."""
         return None
 
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        """Corners (lo, hi) of a box holding every frame, for the camera's home view."""
+        raise NotImplementedError
+
 
 class ClothSource(Source):
     """One of the paper's cloth scenes, simulated live with `selfcd.Simulation`.
@@ -123,6 +127,13 @@ class ClothSource(Source):
     def step_stats(self) -> dict[str, Any] | None:
         return self._last_step
 
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rest cloth's box, extended downwards by its diagonal: room for it to hang from its pins."""
+        rest = self.mesh.vertices
+        lo, hi = rest.min(axis=0), rest.max(axis=0)
+        lo[2] -= float(np.linalg.norm(hi[:2] - lo[:2]))
+        return lo, hi
+
 
 class FramesSource(Source):
     """An animation given as frames sharing faces (e.g. read from files).
@@ -157,6 +168,9 @@ class FramesSource(Source):
 
     def describe(self) -> str:
         return f"{self.names[self.frame]} ({self.frame + 1}/{len(self.frames)})"
+
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.frames.min(axis=(0, 1)), self.frames.max(axis=(0, 1))
 
 
 # ---------------------------------------------------------------- viewer state
@@ -376,23 +390,33 @@ class Viewer:
         self.history.push(self.stats)
 
     def _face_state(self, pairs: np.ndarray, prox: dict[str, np.ndarray] | None) -> np.ndarray:
-        """HIT for faces in an intersecting pair; NEAR for faces touching a proximity
-        contact (the triangle of a vertex-triangle contact, and every face with a
-        vertex in a contact); FREE otherwise."""
+        """HIT for faces in an intersecting pair; NEAR for the triangle of each
+        vertex-triangle proximity contact and the faces on each edge of an
+        edge-edge contact; FREE otherwise."""
         state = np.zeros(len(self.faces), dtype=np.int8)
         if prox is not None:
-            near_vertex = np.zeros(self.mesh.n_vertices, dtype=bool)
             vt = prox["vertex_triangle"]
             if len(vt):
-                near_vertex[vt[:, 0]] = True
                 state[vt[:, 1]] = NEAR
             ee = prox["edge_edge_vertices"]
             if len(ee):
-                near_vertex[ee.ravel()] = True
-            state[near_vertex[self.faces].any(axis=1)] = NEAR
+                on_edge = np.zeros(len(self.faces), dtype=bool)
+                for a, b in ((ee[:, 0], ee[:, 1]), (ee[:, 2], ee[:, 3])):
+                    on_edge |= self._faces_on_edges(a, b)
+                state[on_edge] = NEAR
         if len(pairs):
             state[pairs.ravel()] = HIT
         return state
+
+    def _faces_on_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Mask of the faces having an edge (a[i], b[i]) for some i."""
+        n = np.int64(self.mesh.n_vertices)
+        keys = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+        f = self.faces
+        mask = np.zeros(len(f), dtype=bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            mask |= np.isin(np.minimum(f[:, i], f[:, j]) * n + np.maximum(f[:, i], f[:, j]), keys)
+        return mask
 
 
 # ---------------------------------------------------------------- polyscope
@@ -492,7 +516,23 @@ class PolyscopeView:
         self.cloth = ps.register_surface_mesh("cloth", viewer.positions, viewer.faces, color=CLOTH_COLOR,
                                               edge_width=0.0, smooth_shade=False, back_face_policy="identical")
         self.update()
-        ps.reset_camera_to_home_view()
+        self.frame_camera(*viewer.source.extent())
+
+    def frame_camera(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Sets the scene extents to the box (lo, hi) and looks at it from the front, a little above."""
+        ps = self.ps
+        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        diag = max(float(np.linalg.norm(hi - lo)), 1e-9)
+        ps.set_automatically_compute_scene_extents(False)
+        ps.set_bounding_box(lo, hi)
+        ps.set_length_scale(diag)
+        centre = (lo + hi) / 2
+        direction = np.array([0.35, -1.0, 0.45])
+        direction /= np.linalg.norm(direction)
+        # 0.8 x the distance at which the bounding sphere (radius diag/2) fits the 45-degree vertical field of
+        # view: the box itself, seen from this direction, is narrower than its sphere and still fits.
+        distance = 0.5 * diag / np.sin(np.radians(22.5)) * 0.8
+        ps.look_at(centre + distance * direction, centre)
 
     # ---------------------------------------------------------- structures
 
@@ -512,7 +552,7 @@ class PolyscopeView:
             if ps.has_point_cloud("particles"):
                 ps.remove_point_cloud("particles")
             if len(p):
-                cloud = ps.register_point_cloud("particles", p, color=PARTICLE_COLOR, radius=0.012)
+                cloud = ps.register_point_cloud("particles", p, color=PARTICLE_COLOR, radius=0.02)
                 cloud.set_point_render_mode("sphere")
             self._drawn_particles = len(p)
         elif len(p):
@@ -542,6 +582,7 @@ class PolyscopeView:
         """The imgui panel: playback, method, thickness, sensor, BVH, stats and history."""
         im, v = self.imgui, self.viewer
         changed = False
+        im.PushItemWidth(220)
         im.TextUnformatted(v.source.describe())
         im.TextUnformatted(f"frame {v.frame}")
         if im.Button("Pause" if v.playing else "Play"):
@@ -577,6 +618,7 @@ class PolyscopeView:
 
         im.Separator()
         self._stats_widgets()
+        im.PopItemWidth()
         if changed:
             self.update()
 
@@ -672,6 +714,7 @@ def _headless_view(viewer: Viewer, size: tuple[int, int], include_ui: bool) -> A
     """Polyscope, initialised headless, holding `viewer`'s current frame."""
     ps = init_polyscope(headless=True, size=size)
     view = PolyscopeView(viewer, ps)
+    view.frame_camera(viewer.positions.min(axis=0), viewer.positions.max(axis=0))  # one image: fit the cloth
     if include_ui:
         ps.set_user_callback(view.draw_panel)
     else:
