@@ -4,14 +4,20 @@
 # including the report in headless Chromium).
 #
 # Debian packages (installed only when missing): chromium for the browser
-# test; Mesa's EGL/GL libraries for the polyscope viewer.
+# test; for the polyscope viewer's headless (EGL) screenshots, Mesa's EGL/GL
+# (libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri) and libx11-6, which polyscope's
+# module links. Checked by hiding libraries: polyscope falls back from
+# libEGL.so/libOpenGL.so.0/libGL.so to libEGL.so.1 and libGL.so.1, so neither
+# the -dev packages nor libopengl0 are needed. Mesa's software renderer is
+# enough: no GPU, no display.
 # Python packages: the selfcd package itself (pip install ., which builds the
-# Rust extension with maturin) and its test extras (pytest, playwright, pillow).
+# Rust extension with maturin) and its test extras (pytest, playwright, pillow,
+# polyscope).
 # No browser is downloaded: playwright drives Debian's /usr/bin/chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-DEBS=(chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri)
+DEBS=(chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri libx11-6)
 missing=()
 for pkg in "${DEBS[@]}"; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")

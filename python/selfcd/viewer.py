@@ -459,7 +459,7 @@ def init_polyscope(headless: bool, size: tuple[int, int] = (1024, 768)) -> Any:
             if not _display_available():
                 raise ViewerError(
                     f"no headless OpenGL: polyscope's EGL backend failed ({egl_exc}). Install Mesa's EGL "
-                    "(Debian: libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0) or run under a virtual display "
+                    "(Debian: libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri) or run under a virtual display "
                     "(xvfb-run selfcd view ...)") from None
             try:
                 ps.init("openGL3_glfw")
@@ -518,8 +518,13 @@ class PolyscopeView:
         self.update()
         self.frame_camera(*viewer.source.extent())
 
-    def frame_camera(self, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Sets the scene extents to the box (lo, hi) and looks at it from the front, a little above."""
+    def frame_camera(self, lo: np.ndarray, hi: np.ndarray, shift: float = 0.0,
+                     aspect: float = 4 / 3) -> None:
+        """Sets the scene extents to the box (lo, hi) and looks at it from the front, a little above.
+
+        `shift` moves the box left by that fraction of the image width (to leave room for a panel
+        on the right of an image whose width / height is `aspect`).
+        """
         ps = self.ps
         lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         diag = max(float(np.linalg.norm(hi - lo)), 1e-9)
@@ -532,9 +537,11 @@ class PolyscopeView:
         # 0.8 x the distance at which the bounding sphere (radius diag/2) fits the 45-degree vertical field of
         # view: the box itself, seen from this direction, is narrower than its sphere and still fits.
         distance = 0.5 * diag / np.sin(np.radians(22.5)) * 0.8
-        ps.look_at(centre + distance * direction, centre)
-
-    # ---------------------------------------------------------- structures
+        right = np.cross(-direction, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        half_width = distance * np.tan(np.radians(22.5)) * aspect
+        target = centre + 2 * shift * half_width * right
+        ps.look_at(target + distance * direction, target)
 
     def update(self) -> None:
         """Pushes positions, face colours, particles and BVH boxes of the current frame."""
@@ -714,7 +721,10 @@ def _headless_view(viewer: Viewer, size: tuple[int, int], include_ui: bool) -> A
     """Polyscope, initialised headless, holding `viewer`'s current frame."""
     ps = init_polyscope(headless=True, size=size)
     view = PolyscopeView(viewer, ps)
-    view.frame_camera(viewer.positions.min(axis=0), viewer.positions.max(axis=0))  # one image: fit the cloth
+    # One image: fit the cloth; with the panel, only ours (on the right), and the cloth moved left of it.
+    ps.set_build_default_gui_panels(not include_ui)
+    view.frame_camera(viewer.positions.min(axis=0), viewer.positions.max(axis=0), shift=0.2 if include_ui else 0.0,
+                      aspect=size[0] / size[1])
     if include_ui:
         ps.set_user_callback(view.draw_panel)
     else:
