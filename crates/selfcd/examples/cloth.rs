@@ -51,7 +51,7 @@ fn run() -> Result<(), String> {
         sim.step().map_err(|e| e.to_string())?;
     }
     let (mut step, mut solve, mut detect, mut response) = (0.0, 0.0, 0.0, 0.0);
-    let (mut iters, mut contacts, mut reverted, mut rounds, mut worst) =
+    let (mut iters, mut contacts, mut in_zones, mut rounds, mut worst) =
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
     for k in 0..steps {
@@ -62,15 +62,15 @@ fn run() -> Result<(), String> {
         response += st.response_time;
         iters += st.iterations as u64;
         contacts += st.contacts;
-        reverted += st.reverted;
+        in_zones += st.reverted;
         rounds += st.correction_rounds;
         intersections += st.intersections;
         worst = worst.max(st.step_time);
         if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
             let e = sim.energy();
             println!(
-                "step {k:5} t {:6.2}s it {:3} res {:.1e} contacts {:5} constrained {:4} impulses {:5} reverted {:4} rounds {} step {:.2} ms E {:.4} (kin {:.4})",
-                sim.time(), st.iterations, st.residual, st.contacts, st.constrained, st.impulses, st.reverted, st.correction_rounds, st.step_time * 1e3, e.total(), e.kinetic
+                "step {k:5} t {:6.2}s it {:3} res {:.1e} contacts {:5} constrained {:4} impulses {:5} zone vertices {:4} rounds {} step {:.2} ms E {:.4} (kin {:.4} grav {:.4} elastic {:.4}) zmin {:.3}",
+                sim.time(), st.iterations, st.residual, st.contacts, st.constrained, st.impulses, st.reverted, st.correction_rounds, st.step_time * 1e3, e.total(), e.kinetic, e.gravity, e.elastic, sim.positions().iter().map(|p| p.z).fold(f64::INFINITY, f64::min)
             );
         }
     }
@@ -90,7 +90,7 @@ fn run() -> Result<(), String> {
         worst * 1e3
     );
     println!(
-        "mean CG iterations {:.1}, contacts/step {:.1}, reverted vertices {reverted}, correction detections/step {:.2}, intersections left {intersections}",
+        "mean CG iterations {:.1}, contacts/step {:.1}, vertices in impact zones {in_zones}, correction detections/step {:.2}, intersections left {intersections}",
         iters as f64 / s,
         contacts as f64 / s,
         rounds as f64 / s

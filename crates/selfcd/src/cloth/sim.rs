@@ -14,7 +14,7 @@
 //! conservative detector (`bvh-cones-contour`) runs the end-of-step check.
 
 use super::model::{Cloth, Energy};
-use super::response::{self, ContactKind, ContactParams};
+use super::response::{self, ContactKind, ContactParams, StepStart};
 use super::solver::{Filter, Pcg, PcgOptions, System};
 use crate::detect::{new_detector, Detection, Detector, DetectorOptions, Method};
 use crate::error::{Error, Result};
@@ -82,8 +82,11 @@ pub struct StepStats {
     pub constrained: usize,
     /// Contact impulses applied.
     pub impulses: u64,
-    /// Vertices reverted by the correction stage.
+    /// Vertices whose end-of-step motion the correction stage replaced by the
+    /// rigid motion of their impact zone (or froze at the start of the step).
     pub reverted: usize,
+    /// Impact zones formed by the correction stage.
+    pub zones: usize,
     /// Detections run by the correction stage.
     pub correction_rounds: u32,
     /// Intersecting triangle pairs left at the end of the step (0 unless it started with some).
@@ -300,10 +303,12 @@ impl Simulation {
             Some(g) => g.as_mut(),
             None => self.detector.as_mut(),
         };
-        let c = response::correct(checker, x0, &mut self.x, &mut self.v)?;
+        let start = StepStart { x0, mass: self.cloth.masses(), pinned: self.cloth.pinned(), h: self.opts.dt };
+        let c = response::correct(checker, &start, &mut self.x, &mut self.v)?;
         st.response_time += t0.elapsed().as_secs_f64() - c.detect_time;
         st.detect_time += c.detect_time;
-        (st.reverted, st.correction_rounds, st.intersections) = (c.reverted, c.rounds, c.remaining);
+        (st.reverted, st.zones) = (c.zone_vertices, c.zones);
+        (st.correction_rounds, st.intersections) = (c.rounds, c.remaining);
         let det = if self.guard.is_some() {
             self.timed_detect(st)?
         } else {
