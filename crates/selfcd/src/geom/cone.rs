@@ -4,9 +4,11 @@
 //! angle(n, a) <= h for each. If h < 90 degrees, a itself is a positive vector:
 //! a . n > 0 for every normal under the cone.
 //!
-//! Angles are carried as (cos, sin) pairs and combined with the addition and
-//! half-angle formulas, so refitting a node (a merge) needs no trigonometric
-//! call: it is a handful of multiplications and two square roots.
+//! Angles are carried as (cos, sin) pairs and combined with the addition,
+//! double- and half-angle formulas, so refitting a node (a merge) needs no
+//! trigonometric call: three square roots, three divisions. A cone stores half
+//! of its half-angle, q = h / 2, because the merged cone's half-angle is
+//! H = q1 + d/2 + q2: only d/2 and the new H/2 need a square root.
 
 use glam::DVec3;
 
@@ -40,6 +42,12 @@ impl Angle {
             c: self.c * o.c + self.s * o.s,
             s: self.s * o.c - self.c * o.s,
         }
+    }
+
+    /// Twice an angle in [0, PI/2].
+    #[inline]
+    fn double(self) -> Angle {
+        Angle { c: self.c * self.c - self.s * self.s, s: 2.0 * self.c * self.s }
     }
 
     /// Half of an angle in [0, PI]; accurate near 0 and near PI.
@@ -96,21 +104,18 @@ impl Angle {
     }
 }
 
-/// A cone of directions: unit `axis` and a half-angle in [0, PI] held as its
-/// cosine and sine; the full cone (every direction) has cosine -1.
+/// A cone of directions: unit `axis` and a half-angle h in [0, PI], held as
+/// the cosine and sine of h / 2; the full cone (every direction) has h = PI.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NormalCone {
     /// Unit axis.
     pub axis: DVec3,
-    half: Angle,
+    quarter: Angle,
 }
 
 impl NormalCone {
     /// The cone holding every direction.
-    pub const FULL: NormalCone = NormalCone {
-        axis: DVec3::Z,
-        half: Angle { c: -1.0, s: 0.0 },
-    };
+    pub const FULL: NormalCone = NormalCone { axis: DVec3::Z, quarter: Angle { c: 0.0, s: 1.0 } };
 
     /// The cone of triangle (a, b, c)'s normal, widened by the rounding error of
     /// the cross product so that it holds the exact normal. A degenerate
@@ -128,7 +133,7 @@ impl NormalCone {
         // most asin(x) <= 1.06 x for x = 8 eps |e1||e2| / |n| <= 1/8.
         let inv = 1.0 / len2.sqrt();
         let err = 1.06 * 8.0 * f64::EPSILON * scale2.sqrt() * inv;
-        NormalCone { axis: n * inv, half: Angle::ZERO.widen(err) }
+        NormalCone { axis: n * inv, quarter: Angle::ZERO.widen(0.5 * err) }
     }
 
     /// A cone from an axis (normalised here) and a half-angle in radians.
@@ -136,25 +141,30 @@ impl NormalCone {
         if half_angle >= std::f64::consts::PI || axis.length_squared() == 0.0 {
             return NormalCone::FULL;
         }
-        NormalCone {
-            axis: axis.normalize(),
-            half: Angle {
-                c: half_angle.cos(),
-                s: half_angle.sin(),
-            },
-        }
+        let q = 0.5 * half_angle.max(0.0);
+        NormalCone { axis: axis.normalize(), quarter: Angle { c: q.cos(), s: q.sin() } }
     }
 
-    /// Half-angle in radians (for reports; the engine works with its cosine).
+    /// Half-angle in radians (for reports; the engine works with cosines and sines).
     pub fn half_angle(&self) -> f64 {
-        self.half.s.atan2(self.half.c)
+        2.0 * self.quarter.s.atan2(self.quarter.c)
+    }
+
+    #[inline]
+    fn half(&self) -> Angle {
+        self.quarter.double()
+    }
+
+    #[inline]
+    fn is_full(&self) -> bool {
+        self.quarter.c <= 0.0
     }
 
     /// True when a positive vector exists: every normal under the cone has a
     /// positive dot product with the axis (half-angle below 90 degrees, with margin).
     #[inline]
     pub fn is_positive(&self) -> bool {
-        self.half.c > POSITIVE_MARGIN
+        self.half().c > POSITIVE_MARGIN
     }
 
     /// Smallest cone around the great-circle arc between the axes holding both:
@@ -162,33 +172,28 @@ impl NormalCone {
     /// the second by H - h1, where d is the angle between the axes.
     #[inline]
     pub fn merge(&self, o: &NormalCone) -> NormalCone {
-        if self.half.c <= -1.0 || o.half.c <= -1.0 {
+        if self.is_full() || o.is_full() {
             return NormalCone::FULL;
         }
+        let (h1, h2) = (self.half(), o.half());
         let d = Angle::between(self.axis, o.axis);
-        let (dh1, dh2) = (d.add(self.half), d.add(o.half));
-        if !dh2.at_least_pi() && dh2.le(self.half) {
+        let (dh1, dh2) = (d.add(h1), d.add(h2));
+        if !dh2.at_least_pi() && dh2.le(h1) {
             return *self;
         }
-        if !dh1.at_least_pi() && dh1.le(o.half) {
+        if !dh1.at_least_pi() && dh1.le(h2) {
             return *o;
         }
-        let h = self
-            .half
-            .half()
-            .add(d.half())
-            .add(o.half.half())
-            .widen(MERGE_SLACK);
+        let h = self.quarter.add(d.half()).add(o.quarter).widen(MERGE_SLACK);
         if h.at_least_pi() || d.s == 0.0 {
             return NormalCone::FULL;
         }
-        let t = h.sub(self.half);
+        let t = h.sub(h1);
         // k x a = (b - a cos d) / sin d for k = unit(a x b).
         let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
-        NormalCone {
-            axis: axis.normalize(),
-            half: h,
-        }
+        // Unit up to rounding: one Newton step for 1/|axis| keeps it so without a square root.
+        let axis = axis * (1.5 - 0.5 * axis.length_squared());
+        NormalCone { axis, quarter: h.half() }
     }
 }
 
@@ -229,7 +234,7 @@ mod tests {
             let d = a.axis.dot(b.axis).clamp(-1.0, 1.0).acos();
             let want = (a.half_angle() + d + b.half_angle()) / 2.0;
             let want = want.max(a.half_angle()).max(b.half_angle());
-            if want < PI - 1e-6 && m.half.c > -1.0 {
+            if want < PI - 1e-6 && !m.is_full() {
                 let contained =
                     d + b.half_angle() <= a.half_angle() || d + a.half_angle() <= b.half_angle();
                 if !contained {
@@ -246,8 +251,8 @@ mod tests {
     #[test]
     fn nearly_equal_axes_merge_to_a_tight_cone() {
         // Axes equal up to rounding (not exactly unit): must not blow up to the full cone.
-        let a = NormalCone { axis: DVec3::new(0.0, 0.0, 0.9999999999999999), half: Angle { c: 1.0, s: 1.9e-15 } };
-        let b = NormalCone { axis: DVec3::new(0.0, -0.0, 0.9999999999999999), half: Angle { c: 1.0, s: 2.7e-15 } };
+        let a = NormalCone { axis: DVec3::new(0.0, 0.0, 0.9999999999999999), quarter: Angle { c: 1.0, s: 1.9e-15 } };
+        let b = NormalCone { axis: DVec3::new(0.0, -0.0, 0.9999999999999999), quarter: Angle { c: 1.0, s: 2.7e-15 } };
         let m = a.merge(&b);
         assert!(m.is_positive() && m.half_angle() < 1e-12, "{m:?}");
     }
