@@ -40,8 +40,13 @@ pub enum Method {
 
 impl Method {
     /// Every method, in report order.
-    pub const ALL: [Method; 5] =
-        [Method::Brute, Method::Bvh, Method::BvhCones, Method::BvhConesContour, Method::SensorGated];
+    pub const ALL: [Method; 5] = [
+        Method::Brute,
+        Method::Bvh,
+        Method::BvhCones,
+        Method::BvhConesContour,
+        Method::SensorGated,
+    ];
 
     /// The method's name, as used on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -69,10 +74,16 @@ impl std::fmt::Display for Method {
 impl FromStr for Method {
     type Err = Error;
     fn from_str(s: &str) -> Result<Method> {
-        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
-            let names: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
-            Error::InvalidParameter(format!("unknown method {s:?}; expected one of {}", names.join(", ")))
-        })
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
+                Error::InvalidParameter(format!(
+                    "unknown method {s:?}; expected one of {}",
+                    names.join(", ")
+                ))
+            })
     }
 }
 
@@ -88,7 +99,10 @@ pub struct DetectorOptions {
 
 impl Default for DetectorOptions {
     fn default() -> Self {
-        DetectorOptions { thickness: 0.0, sensor: SensorParams::default() }
+        DetectorOptions {
+            thickness: 0.0,
+            sensor: SensorParams::default(),
+        }
     }
 }
 
@@ -96,7 +110,10 @@ impl DetectorOptions {
     /// Checks the options' ranges.
     pub fn validate(&self) -> Result<()> {
         if !(self.thickness >= 0.0 && self.thickness.is_finite()) {
-            return Err(Error::InvalidParameter(format!("thickness must be finite and >= 0, got {}", self.thickness)));
+            return Err(Error::InvalidParameter(format!(
+                "thickness must be finite and >= 0, got {}",
+                self.thickness
+            )));
         }
         self.sensor.validate()
     }
@@ -128,11 +145,19 @@ pub trait Detector: Send {
 }
 
 /// Builds a detector running `method` on `mesh`.
-pub fn new_detector(mesh: Arc<Mesh>, method: Method, opts: &DetectorOptions) -> Result<Box<dyn Detector>> {
+pub fn new_detector(
+    mesh: Arc<Mesh>,
+    method: Method,
+    opts: &DetectorOptions,
+) -> Result<Box<dyn Detector>> {
     opts.validate()?;
     Ok(match method {
         Method::Brute => Box::new(brute::BruteDetector::new(mesh, opts.thickness)),
-        Method::SensorGated => Box::new(sensor_gated::SensorGatedDetector::new(mesh, opts.thickness, &opts.sensor)?),
+        Method::SensorGated => Box::new(sensor_gated::SensorGatedDetector::new(
+            mesh,
+            opts.thickness,
+            &opts.sensor,
+        )?),
         _ => Box::new(hierarchy::BvhDetector::new(mesh, method, opts.thickness)),
     })
 }
