@@ -294,6 +294,7 @@ def test_no_headless_backend_says_why(tmp_path: Path) -> None:
     r = run_cli("view", "--scene", "center", "--screenshot", "x.png", cwd=tmp_path, env=env)
     assert r.returncode == 1
     assert "no headless OpenGL" in r.stderr and "libegl-mesa0" in r.stderr
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr  # one clear message, no noise
     assert not (tmp_path / "x.png").exists()
 
 

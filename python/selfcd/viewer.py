@@ -442,9 +442,36 @@ def init_polyscope(headless: bool, size: tuple[int, int] = (1024, 768)) -> Any:
     EGL it falls back to a window backend when a display exists (e.g. Xvfb).
     headless=False needs a display. Raises ViewerError saying what is missing.
     """
+    global _init_error
     ps = _import_polyscope()
+    if _init_error is not None:
+        raise ViewerError(_init_error)
     if ps.is_initialized():
+        if not headless and ps.is_headless():
+            raise ViewerError("polyscope already runs headless in this process (after a screenshot); "
+                              "open the window from a new process")
         return ps
+    if not headless and not _display_available():
+        raise ViewerError("no display (DISPLAY and WAYLAND_DISPLAY are unset): the window needs one. "
+                          "Use --screenshot PATH to render without a window, or run under xvfb-run.")
+    try:
+        _init_backend(ps, headless, size)
+    except ViewerError as exc:
+        if not ps.is_initialized():
+            # polyscope's exit hook raises "not initialized" after a failed init; a mock backend (no
+            # OpenGL) keeps the exit quiet, and every later call in this process gets the first error.
+            _init_error = str(exc)
+            ps.init("openGL_mock")
+        raise
+    return ps
+
+
+#: Why polyscope could not start in this process, once it failed (it cannot be initialised twice).
+_init_error: str | None = None
+
+
+def _init_backend(ps: Any, headless: bool, size: tuple[int, int]) -> None:
+    """Initialises polyscope's OpenGL backend (see `init_polyscope`) and sets the viewer's defaults."""
     ps.set_use_prefs_file(False)  # no .polyscope.ini in the working directory
     ps.set_program_name("selfcd view")
     ps.set_print_prefix("[selfcd view] ")
@@ -468,9 +495,6 @@ def init_polyscope(headless: bool, size: tuple[int, int] = (1024, 768)) -> Any:
                                   f"{os.environ.get('DISPLAY') or os.environ.get('WAYLAND_DISPLAY')} "
                                   f"({glfw_exc})") from None
     else:
-        if not _display_available():
-            raise ViewerError("no display (DISPLAY and WAYLAND_DISPLAY are unset): the window needs one. "
-                              "Use --screenshot PATH to render without a window, or run under xvfb-run.")
         try:
             ps.init("openGL3_glfw")
         except Exception as exc:
@@ -484,7 +508,6 @@ def init_polyscope(headless: bool, size: tuple[int, int] = (1024, 768)) -> Any:
     ps.set_front_dir("neg_y_front")
     ps.set_ground_plane_mode("none")
     ps.set_background_color(BACKGROUND)
-    return ps
 
 
 def _box_network(boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
