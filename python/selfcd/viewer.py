@@ -46,7 +46,7 @@ BACKGROUND = (1.0, 1.0, 1.0)
 #: Face states in `Viewer.face_state`.
 FREE, NEAR, HIT = 0, 1, 2
 
-#: Methods in the selector, in the engine's order.
+#: The method with a particle sensor (its particles are drawn; its options are in the panel).
 SENSOR_METHOD = "sensor-gated"
 
 
