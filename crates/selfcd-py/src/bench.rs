@@ -28,8 +28,14 @@ pub fn bench_scaling<'py>(
     reps: usize,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
-    let states: Vec<BenchState> = states.iter().map(|s| s.parse().map_err(engine_err)).collect::<PyResult<_>>()?;
-    let methods = methods.iter().map(|m| parse_method(m)).collect::<PyResult<Vec<_>>>()?;
+    let states: Vec<BenchState> = states
+        .iter()
+        .map(|s| s.parse().map_err(engine_err))
+        .collect::<PyResult<_>>()?;
+    let methods = methods
+        .iter()
+        .map(|m| parse_method(m))
+        .collect::<PyResult<Vec<_>>>()?;
     let mut done = 0usize;
     let mut cb_err: Option<PyErr> = None;
     let rows = py.detach(|| {

@@ -40,7 +40,10 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 13] {
 
 /// True for the fields that are counts (exported as int64).
 fn is_count(name: &str) -> bool {
-    !matches!(name, "residual" | "solve_time" | "detect_time" | "response_time" | "step_time")
+    !matches!(
+        name,
+        "residual" | "solve_time" | "detect_time" | "response_time" | "step_time"
+    )
 }
 
 /// One step's stats as a dict, with `detection` the FrameStats dict.
@@ -64,7 +67,10 @@ fn step_columns<'py>(py: Python<'py>, steps: &[StepStats]) -> PyResult<Bound<'py
     for (col, (name, _)) in step_fields(&StepStats::default()).iter().enumerate() {
         let vals = rows.iter().map(|r| r[col].1);
         if is_count(name) {
-            d.set_item(*name, PyArray1::from_vec(py, vals.map(|v| v as i64).collect()))?;
+            d.set_item(
+                *name,
+                PyArray1::from_vec(py, vals.map(|v| v as i64).collect()),
+            )?;
         } else {
             d.set_item(*name, PyArray1::from_vec(py, vals.collect()))?;
         }
@@ -84,7 +90,9 @@ pub struct PySimulation {
 
 impl PySimulation {
     fn lock(&self) -> PyResult<MutexGuard<'_, Simulation>> {
-        self.sim.lock().map_err(|_| PyRuntimeError::new_err("simulation is unusable after an internal error"))
+        self.sim
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("simulation is unusable after an internal error"))
     }
 }
 
@@ -97,7 +105,13 @@ impl PySimulation {
     /// `dt` overrides the time step (default 1/60 s); `self_collision=False` lets the cloth pass through itself.
     #[new]
     #[pyo3(signature = (scene, resolution = 11, method = "bvh-cones-contour", dt = None, self_collision = true))]
-    fn new(scene: &str, resolution: usize, method: &str, dt: Option<f64>, self_collision: bool) -> PyResult<Self> {
+    fn new(
+        scene: &str,
+        resolution: usize,
+        method: &str,
+        dt: Option<f64>,
+        self_collision: bool,
+    ) -> PyResult<Self> {
         let sc: PaperScene = scene.parse().map_err(engine_err)?;
         let m = parse_method(method)?;
         let sim = guard("Simulation()", || {
@@ -107,7 +121,11 @@ impl PySimulation {
             opts.self_collision = self_collision;
             Simulation::new(cloth, m, opts)
         })?;
-        Ok(PySimulation { sim: Mutex::new(sim), scene: sc, resolution })
+        Ok(PySimulation {
+            sim: Mutex::new(sim),
+            scene: sc,
+            resolution,
+        })
     }
 
     /// Advances one time step; returns its stats (a dict, `detection` holding the FrameStats).
@@ -156,8 +174,14 @@ impl PySimulation {
         }
         let n = frames.first().map_or(0, |f| f.len());
         let flat: Vec<f64> = frames.iter().flatten().flat_map(|p| p.to_array()).collect();
-        let arr = PyArray1::from_vec(py, flat).reshape([frames.len(), n, 3])?.into_any();
-        Ok((arr, PyArray1::from_vec(py, times).into_any(), step_columns(py, &stats)?))
+        let arr = PyArray1::from_vec(py, flat)
+            .reshape([frames.len(), n, 3])?
+            .into_any();
+        Ok((
+            arr,
+            PyArray1::from_vec(py, times).into_any(),
+            step_columns(py, &stats)?,
+        ))
     }
 
     /// Current positions, (n,3) float64.
@@ -175,7 +199,9 @@ impl PySimulation {
     /// The cloth's mesh (rest shape and faces).
     #[getter]
     fn mesh(&self) -> PyResult<PyMesh> {
-        Ok(PyMesh { inner: self.lock()?.cloth().mesh().clone() })
+        Ok(PyMesh {
+            inner: self.lock()?.cloth().mesh().clone(),
+        })
     }
 
     /// Which vertices are pinned, (n,) bool.
@@ -244,6 +270,10 @@ impl PySimulation {
     }
 
     fn __repr__(&self) -> String {
-        format!("Simulation(scene={:?}, resolution={})", self.scene.name(), self.resolution)
+        format!(
+            "Simulation(scene={:?}, resolution={})",
+            self.scene.name(),
+            self.resolution
+        )
     }
 }

@@ -41,7 +41,9 @@ pub fn compare_methods<'py>(
     let mut callback_err: Option<PyErr> = None;
     let runs = py.detach(|| {
         guard("compare_methods", || {
-            compare::compare_methods(&m, &fr, &list, &opts, |done| report(&progress, done, &mut callback_err))
+            compare::compare_methods(&m, &fr, &list, &opts, |done| {
+                report(&progress, done, &mut callback_err)
+            })
         })
     })?;
     if let Some(e) = callback_err {
@@ -53,8 +55,14 @@ pub fn compare_methods<'py>(
         d.set_item("method", run.method.name())?;
         let stats: Vec<_> = run.frames.iter().map(|f| &f.stats).collect();
         d.set_item("stats", stats_columns(py, &stats)?)?;
-        d.set_item("missed", PyArray1::from_vec(py, run.frames.iter().map(|f| f.missed as i64).collect()))?;
-        d.set_item("spurious", PyArray1::from_vec(py, run.frames.iter().map(|f| f.spurious as i64).collect()))?;
+        d.set_item(
+            "missed",
+            PyArray1::from_vec(py, run.frames.iter().map(|f| f.missed as i64).collect()),
+        )?;
+        d.set_item(
+            "spurious",
+            PyArray1::from_vec(py, run.frames.iter().map(|f| f.spurious as i64).collect()),
+        )?;
         out.append(d)?;
     }
     Ok(out)

@@ -8,7 +8,9 @@ use selfcd::DVec3;
 /// Checks that a 2-d array has 3 columns; `what` names it in the error.
 fn check_cols(shape: &[usize], what: &str) -> PyResult<()> {
     if shape[1] != 3 {
-        return Err(PyValueError::new_err(format!("{what} must have shape (n, 3), got {shape:?}")));
+        return Err(PyValueError::new_err(format!(
+            "{what} must have shape (n, 3), got {shape:?}"
+        )));
     }
     Ok(())
 }
@@ -16,7 +18,11 @@ fn check_cols(shape: &[usize], what: &str) -> PyResult<()> {
 /// An (n,3) float64 array as points.
 pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DVec3>> {
     check_cols(a.shape(), what)?;
-    Ok(a.as_array().rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect())
+    Ok(a.as_array()
+        .rows()
+        .into_iter()
+        .map(|r| DVec3::new(r[0], r[1], r[2]))
+        .collect())
 }
 
 /// An (n,3) float64 array as coordinate triples.
@@ -33,7 +39,10 @@ pub fn triangles(a: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
         let mut tri = [0u32; 3];
         for k in 0..3 {
             tri[k] = u32::try_from(r[k]).map_err(|_| {
-                PyValueError::new_err(format!("face {t} has vertex index {} (indices must be in 0..2^32)", r[k]))
+                PyValueError::new_err(format!(
+                    "face {t} has vertex index {} (indices must be in 0..2^32)",
+                    r[k]
+                ))
             })?;
         }
         out.push(tri);
@@ -45,19 +54,28 @@ pub fn triangles(a: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
 pub fn frames(a: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Vec<DVec3>>> {
     let s = a.shape();
     if s[2] != 3 {
-        return Err(PyValueError::new_err(format!("frames must have shape (frames, n, 3), got {s:?}")));
+        return Err(PyValueError::new_err(format!(
+            "frames must have shape (frames, n, 3), got {s:?}"
+        )));
     }
     let view = a.as_array();
     Ok(view
         .outer_iter()
-        .map(|f| f.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect())
+        .map(|f| {
+            f.rows()
+                .into_iter()
+                .map(|r| DVec3::new(r[0], r[1], r[2]))
+                .collect()
+        })
         .collect())
 }
 
 /// Points as a new (n,3) float64 array.
 pub fn points_array<'py>(py: Python<'py>, p: &[DVec3]) -> PyResult<Bound<'py, PyAny>> {
     let flat: Vec<f64> = p.iter().flat_map(|v| v.to_array()).collect();
-    Ok(PyArray1::from_vec(py, flat).reshape([p.len(), 3])?.into_any())
+    Ok(PyArray1::from_vec(py, flat)
+        .reshape([p.len(), 3])?
+        .into_any())
 }
 
 /// Rows of `K` values as a new (k,K) array.

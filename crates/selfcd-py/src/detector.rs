@@ -20,8 +20,15 @@ pub fn parse_method(name: &str) -> PyResult<Method> {
 
 /// Builds the engine options from the thickness and the method's keyword options.
 /// Sensor parameters (`SensorParams` fields) are accepted by `sensor-gated` only.
-pub fn build_options(method: Method, thickness: f64, options: Option<&Bound<'_, PyDict>>) -> PyResult<DetectorOptions> {
-    let mut opts = DetectorOptions { thickness, ..Default::default() };
+pub fn build_options(
+    method: Method,
+    thickness: f64,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<DetectorOptions> {
+    let mut opts = DetectorOptions {
+        thickness,
+        ..Default::default()
+    };
     if let Some(d) = options {
         for (key, value) in d.iter() {
             let key: String = key.extract()?;
@@ -39,8 +46,19 @@ pub fn build_options(method: Method, thickness: f64, options: Option<&Bound<'_, 
 }
 
 /// Names of the particle sensor's options (fields of the engine's `SensorParams`).
-pub const SENSOR_OPTIONS: [&str; 11] =
-    ["count", "a", "b", "n_min", "n_max", "epsilon", "step_gain", "max_step", "tolerance", "inner", "refit_every_frame"];
+pub const SENSOR_OPTIONS: [&str; 11] = [
+    "count",
+    "a",
+    "b",
+    "n_min",
+    "n_max",
+    "epsilon",
+    "step_gain",
+    "max_step",
+    "tolerance",
+    "inner",
+    "refit_every_frame",
+];
 
 /// Sets one sensor parameter from a Python value; wrong names or types raise TypeError.
 fn set_sensor_option(p: &mut SensorParams, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -55,7 +73,9 @@ fn set_sensor_option(p: &mut SensorParams, key: &str, v: &Bound<'_, PyAny>) -> P
         "step_gain" => p.step_gain = v.extract().map_err(|_| bad("a number"))?,
         "max_step" => p.max_step = v.extract().map_err(|_| bad("a number"))?,
         "tolerance" => p.tolerance = v.extract().map_err(|_| bad("a number"))?,
-        "inner" => p.inner = parse_method(&v.extract::<String>().map_err(|_| bad("a method name"))?)?,
+        "inner" => {
+            p.inner = parse_method(&v.extract::<String>().map_err(|_| bad("a method name"))?)?
+        }
         "refit_every_frame" => p.refit_every_frame = v.extract().map_err(|_| bad("a bool"))?,
         _ => {
             return Err(PyTypeError::new_err(format!(
@@ -79,11 +99,15 @@ pub struct PyDetector {
 
 impl PyDetector {
     fn lock_det(&self) -> PyResult<MutexGuard<'_, Box<dyn Detector>>> {
-        self.det.lock().map_err(|_| PyRuntimeError::new_err("detector is unusable after an internal error"))
+        self.det
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("detector is unusable after an internal error"))
     }
 
     fn lock_last(&self) -> PyResult<MutexGuard<'_, Option<Detection>>> {
-        self.last.lock().map_err(|_| PyRuntimeError::new_err("detector is unusable after an internal error"))
+        self.last
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("detector is unusable after an internal error"))
     }
 }
 
@@ -113,7 +137,11 @@ impl PyDetector {
     }
 
     /// Detects at `positions` ((n,3) float64); returns intersecting face pairs, (k,2) int64, sorted, i<j.
-    fn detect<'py>(&self, py: Python<'py>, positions: PyReadonlyArray2<'_, f64>) -> PyResult<Bound<'py, PyAny>> {
+    fn detect<'py>(
+        &self,
+        py: Python<'py>,
+        positions: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let p = points(&positions, "positions")?;
         let found = py.detach(|| -> PyResult<Detection> {
             let mut det = self.lock_det()?;
@@ -169,21 +197,46 @@ impl PyDetector {
 
 /// Proximity contacts as arrays: vertex-triangle pairs and edge-edge pairs
 /// (edge ids and their vertices), with distances and closest-point parameters.
-fn proximity_dict<'py>(py: Python<'py>, p: &ProximityContacts, mesh: &selfcd::Mesh) -> PyResult<Bound<'py, PyDict>> {
+fn proximity_dict<'py>(
+    py: Python<'py>,
+    p: &ProximityContacts,
+    mesh: &selfcd::Mesh,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let vt = &p.vertex_triangle;
-    d.set_item("vertex_triangle", rows_array(py, vt.iter().map(|c| [c.vertex as i64, c.triangle as i64]))?)?;
-    d.set_item("vertex_triangle_distance", PyArray1::from_vec(py, vt.iter().map(|c| c.distance).collect()))?;
-    d.set_item("vertex_triangle_bary", rows_array(py, vt.iter().map(|c| c.bary))?)?;
+    d.set_item(
+        "vertex_triangle",
+        rows_array(py, vt.iter().map(|c| [c.vertex as i64, c.triangle as i64]))?,
+    )?;
+    d.set_item(
+        "vertex_triangle_distance",
+        PyArray1::from_vec(py, vt.iter().map(|c| c.distance).collect()),
+    )?;
+    d.set_item(
+        "vertex_triangle_bary",
+        rows_array(py, vt.iter().map(|c| c.bary))?,
+    )?;
     let ee = &p.edge_edge;
     let edges = &mesh.topology().edges;
-    d.set_item("edge_edge", rows_array(py, ee.iter().map(|c| [c.edges[0] as i64, c.edges[1] as i64]))?)?;
+    d.set_item(
+        "edge_edge",
+        rows_array(
+            py,
+            ee.iter().map(|c| [c.edges[0] as i64, c.edges[1] as i64]),
+        )?,
+    )?;
     let verts = ee.iter().map(|c| {
         let (a, b) = (edges[c.edges[0] as usize], edges[c.edges[1] as usize]);
         [a[0] as i64, a[1] as i64, b[0] as i64, b[1] as i64]
     });
     d.set_item("edge_edge_vertices", rows_array(py, verts)?)?;
-    d.set_item("edge_edge_distance", PyArray1::from_vec(py, ee.iter().map(|c| c.distance).collect()))?;
-    d.set_item("edge_edge_params", rows_array(py, ee.iter().map(|c| c.params))?)?;
+    d.set_item(
+        "edge_edge_distance",
+        PyArray1::from_vec(py, ee.iter().map(|c| c.distance).collect()),
+    )?;
+    d.set_item(
+        "edge_edge_params",
+        rows_array(py, ee.iter().map(|c| c.params))?,
+    )?;
     Ok(d)
 }

@@ -19,7 +19,9 @@ pub fn guard<T>(what: &str, f: impl FnOnce() -> selfcd::Result<T>) -> Result<T, 
                 .map(|s| s.to_string())
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            Err(PyRuntimeError::new_err(format!("internal error in {what}: {msg} (please report this)")))
+            Err(PyRuntimeError::new_err(format!(
+                "internal error in {what}: {msg} (please report this)"
+            )))
         }
     }
 }

@@ -28,7 +28,11 @@ fn methods() -> Vec<&'static str> {
 /// Names of the methods that may miss contacts by design.
 #[pyfunction]
 fn non_conservative_methods() -> Vec<&'static str> {
-    Method::ALL.iter().filter(|m| !m.is_conservative()).map(|m| m.name()).collect()
+    Method::ALL
+        .iter()
+        .filter(|m| !m.is_conservative())
+        .map(|m| m.name())
+        .collect()
 }
 
 /// Names of the keyword options the `sensor-gated` method takes (the sensor's parameters).

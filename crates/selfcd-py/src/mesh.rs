@@ -2,7 +2,7 @@
 
 use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
-use numpy::{PyReadonlyArray2};
+use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use selfcd::Mesh;
 use std::sync::Arc;
@@ -18,11 +18,17 @@ pub struct PyMesh {
 impl PyMesh {
     /// Validates an (n,3) float64 vertex array and an (m,3) int64 face array.
     #[new]
-    fn new(py: Python<'_>, vertices: PyReadonlyArray2<'_, f64>, faces: PyReadonlyArray2<'_, i64>) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        vertices: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, i64>,
+    ) -> PyResult<Self> {
         let v = triples(&vertices, "vertices")?;
         let f = triangles(&faces)?;
         let mesh = py.detach(|| guard("Mesh()", || Mesh::new(v, f)))?;
-        Ok(PyMesh { inner: Arc::new(mesh) })
+        Ok(PyMesh {
+            inner: Arc::new(mesh),
+        })
     }
 
     /// Rest positions, (n,3) float64 (a copy).
@@ -34,7 +40,10 @@ impl PyMesh {
     /// Faces, (m,3) int64 (a copy).
     #[getter]
     fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        rows_array(py, self.inner.triangles().iter().map(|t| t.map(|v| v as i64)))
+        rows_array(
+            py,
+            self.inner.triangles().iter().map(|t| t.map(|v| v as i64)),
+        )
     }
 
     /// Unique undirected edges, (e,2) int64, smaller vertex first; edge ids index this array.
@@ -62,7 +71,11 @@ impl PyMesh {
     }
 
     fn __repr__(&self) -> String {
-        format!("Mesh(n_vertices={}, n_faces={})", self.inner.n_vertices(), self.inner.n_triangles())
+        format!(
+            "Mesh(n_vertices={}, n_faces={})",
+            self.inner.n_vertices(),
+            self.inner.n_triangles()
+        )
     }
 }
 

@@ -57,13 +57,22 @@ pub fn stats_dict<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, P
 /// times and lengths, int64 for counts, int8 for `triggered` (-1: no sensor).
 pub fn stats_columns<'py>(py: Python<'py>, frames: &[&FrameStats]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    let Some(first) = frames.first() else { return Ok(d) };
+    let Some(first) = frames.first() else {
+        return Ok(d);
+    };
     let rows: Vec<Vec<(&'static str, Value)>> = frames.iter().map(|s| fields(s)).collect();
     for (col, (name, kind)) in fields(first).iter().enumerate() {
         let arr = match kind {
-            Value::F(_) => PyArray1::from_vec(py, rows.iter().map(|r| as_f(&r[col].1)).collect()).into_any(),
-            Value::U(_) => PyArray1::from_vec(py, rows.iter().map(|r| as_i(&r[col].1)).collect()).into_any(),
-            Value::B(_) => PyArray1::from_vec(py, rows.iter().map(|r| tri_state(&r[col].1)).collect()).into_any(),
+            Value::F(_) => {
+                PyArray1::from_vec(py, rows.iter().map(|r| as_f(&r[col].1)).collect()).into_any()
+            }
+            Value::U(_) => {
+                PyArray1::from_vec(py, rows.iter().map(|r| as_i(&r[col].1)).collect()).into_any()
+            }
+            Value::B(_) => {
+                PyArray1::from_vec(py, rows.iter().map(|r| tri_state(&r[col].1)).collect())
+                    .into_any()
+            }
         };
         d.set_item(*name, arr)?;
     }
