@@ -20,7 +20,7 @@ pub fn paper_scenes() -> Vec<&'static str> {
 }
 
 /// Scalar fields of StepStats (the detection stats are kept apart).
-fn step_fields(s: &StepStats) -> [(&'static str, f64); 13] {
+fn step_fields(s: &StepStats) -> [(&'static str, f64); 14] {
     [
         ("iterations", s.iterations as f64),
         ("residual", s.residual),
@@ -29,6 +29,7 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 13] {
         ("constrained", s.constrained as f64),
         ("impulses", s.impulses as f64),
         ("reverted", s.reverted as f64),
+        ("zones", s.zones as f64),
         ("correction_rounds", s.correction_rounds as f64),
         ("intersections", s.intersections as f64),
         ("solve_time", s.solve_time),
