@@ -101,9 +101,7 @@ impl Detector for BruteDetector {
         s.traverse_time = t0.elapsed().as_secs_f64();
         s.primitive_tests = tests;
         s.adjacent_skips = adjacent;
-        s.contacts = det.pairs.len() as u64;
-        s.proximity_contacts =
-            (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
+        det.count_contacts();
         Ok(det)
     }
 }

@@ -81,10 +81,8 @@ impl BvhDetector {
         }
         let s = &mut det.stats;
         counters.write_to(s);
-        s.contacts = det.pairs.len() as u64;
-        s.proximity_contacts =
-            (det.proximity.vertex_triangle.len() + det.proximity.edge_edge.len()) as u64;
         s.traverse_time = t0.elapsed().as_secs_f64();
+        det.count_contacts();
         det
     }
 }

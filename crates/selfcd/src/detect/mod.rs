@@ -130,6 +130,15 @@ pub struct Detection {
     pub stats: FrameStats,
 }
 
+impl Detection {
+    /// Sets the stats' contact counts from what was found.
+    pub fn count_contacts(&mut self) {
+        self.stats.contacts = self.pairs.len() as u64;
+        self.stats.proximity_contacts =
+            (self.proximity.vertex_triangle.len() + self.proximity.edge_edge.len()) as u64;
+    }
+}
+
 /// A self-collision detector for one mesh, keeping its state between frames.
 pub trait Detector: Send {
     /// The method this detector runs.
