@@ -293,12 +293,12 @@ pub struct StepStart<'a> {
 /// while the detector finds intersecting pairs at `x`: merge the vertices of
 /// each pair's two triangles into one zone (union-find); every zone then moves
 /// rigidly from its start-of-step positions with its own momentum and angular
-/// momentum, `x_i = c0 + h v_c + R(h w) (x0_i - c0)`, `w = I^-1 L` (a zone with
-/// a pin stays at `x0`). A rigid motion keeps the zone's own triangles as
-/// intersection-free as they were at `x0`, so each round must merge or grow
-/// zones; if a round cannot, the zones still intersecting are frozen at `x0`
-/// with zero velocity, and if that cannot help either, the stage stops and
-/// reports the pairs left.
+/// momentum, `x_i = c0 + h v_c + R(h w) (x0_i - c0)`, `w = I^-1 L` (pinned
+/// vertices count with their zero velocity and stay put). A rigid motion keeps
+/// the zone's own triangles as intersection-free as they were at `x0`, so each
+/// round must merge or grow zones, unless a pin stayed behind; if a round
+/// cannot, the zones still intersecting are frozen at `x0` with zero velocity,
+/// and if that cannot help either, the stage stops and reports the pairs left.
 pub fn correct(detector: &mut dyn Detector, start: &StepStart, x: &mut [DVec3], v: &mut [DVec3]) -> Result<Correction> {
     let mesh = detector.mesh().clone();
     let tris = mesh.triangles();
@@ -339,11 +339,12 @@ struct Zones {
     parent: Vec<u32>,
     member: Vec<bool>,
     frozen: Vec<bool>,
+    pinned: Vec<bool>,
 }
 
 impl Zones {
     fn new(n: usize, pinned: &[bool]) -> Zones {
-        Zones { parent: (0..n as u32).collect(), member: vec![false; n], frozen: pinned.to_vec() }
+        Zones { parent: (0..n as u32).collect(), member: vec![false; n], frozen: vec![false; n], pinned: pinned.to_vec() }
     }
 
     fn root(&mut self, mut i: usize) -> usize {
@@ -397,7 +398,7 @@ impl Zones {
         }
         for (r, verts) in by_root.iter().enumerate().filter(|(_, z)| !z.is_empty()) {
             let motion = if self.frozen[r] { RigidMotion::default() } else { RigidMotion::of(verts, s, u) };
-            for &i in verts {
+            for &i in verts.iter().filter(|&&i| !self.pinned[i as usize]) {
                 let i = i as usize;
                 x[i] = motion.apply(s.x0[i]);
                 v[i] = (x[i] - s.x0[i]) / s.h;
