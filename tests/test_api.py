@@ -200,8 +200,42 @@ def test_compare_progress_errors_propagate() -> None:
         selfcd.compare_methods(selfcd.Mesh(V, F), np.stack([V, V]), ["bvh"], progress=boom)
 
 
-def test_detect_releases_the_gil() -> None:
-    """Two threads detecting at once both finish with the same answer."""
+def _longest_stall_during(work) -> tuple[float, float]:
+    """Runs `work` in a thread while this thread keeps counting; returns (seconds the
+    work took, longest gap between two counts). A call that held the GIL would
+    stall this thread for its whole length."""
+    import time
+
+    done: list[float] = []
+
+    def worker() -> None:
+        t0 = time.perf_counter()
+        work()
+        done.append(time.perf_counter() - t0)
+
+    t = threading.Thread(target=worker)
+    last, longest = time.perf_counter(), 0.0
+    t.start()
+    while t.is_alive():
+        now = time.perf_counter()
+        longest, last = max(longest, now - last), now
+    t.join()
+    return done[0], longest
+
+
+def test_long_calls_release_the_gil() -> None:
+    V, F = selfcd.scenes.grid(150)
+    P = selfcd.scenes.deform(V, "crumple", amplitude=0.3, wavelength=0.4, seed=5)
+    mesh = selfcd.Mesh(V, F)
+    took, stall = _longest_stall_during(lambda: selfcd.compare_methods(mesh, np.stack([P] * 3), ["bvh"]))
+    assert took > 0.2, "the call should be long enough to tell"
+    assert stall < took / 2, f"compare_methods blocked Python for {stall:.3f} s of {took:.3f} s"
+    sim = selfcd.Simulation("center", 30)
+    took, stall = _longest_stall_during(lambda: sim.run(20))
+    assert took > 0.2 and stall < took / 2, f"Simulation.run blocked Python for {stall:.3f} s of {took:.3f} s"
+
+
+def test_threads_detecting_at_once_agree() -> None:
     V, F = selfcd.scenes.grid(120)
     P = selfcd.scenes.deform(V, "crumple", amplitude=0.3, wavelength=0.4, seed=5)
     mesh = selfcd.Mesh(V, F)

@@ -1,7 +1,7 @@
 //! Runs several methods over the same recorded frames (engine `detect::compare`).
 
 use crate::convert::pairs_array;
-use crate::detector::{build_options, parse_method};
+use crate::detector::parse_method;
 use crate::errors::guard;
 use crate::mesh::PyMesh;
 use crate::stats::stats_columns;
@@ -9,7 +9,7 @@ use numpy::{PyArray1, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use selfcd::detect::compare;
-use selfcd::Method;
+use selfcd::{DetectorOptions, Method};
 
 /// Methods by name, or every method when `names` is None.
 fn parse_methods(names: Option<Vec<String>>) -> PyResult<Vec<Method>> {
@@ -35,7 +35,8 @@ pub fn compare_methods<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let list = parse_methods(methods)?;
-    let opts = build_options(Method::ALL[0], thickness, None)?;
+    let opts = DetectorOptions { thickness, ..Default::default() };
+    opts.validate().map_err(crate::errors::engine_err)?;
     let fr = crate::convert::frames(&frames)?;
     let m = mesh.inner.clone();
     let mut callback_err: Option<PyErr> = None;
