@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 import selfcd
 from selfcd.io import save_obj
@@ -48,6 +49,8 @@ def obj_files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         paths[name] = d / f"{name}.obj"
         save_obj(paths[name], P, F)
     np.savez(d / "through.npz", V=shapes["through"], F=F)
+    trimesh.Trimesh(shapes["through"], F, process=False).export(d / "through.ply")
+    paths["ply"] = d / "through.ply"
     paths["npz"] = d / "through.npz"
     V2, F2 = selfcd.scenes.grid(5)
     save_obj(d / "other.obj", V2, F2)
@@ -70,10 +73,11 @@ def test_detect_intersecting_mesh_exits_1_and_lists_pairs(obj_files) -> None:
 
 
 def test_detect_json_matches_the_api(obj_files) -> None:
-    out = run("detect", "--json", "--method", "bvh", str(obj_files["through"]), str(obj_files["npz"]))
+    out = run("detect", "--json", "--method", "bvh", str(obj_files["through"]), str(obj_files["npz"]),
+              str(obj_files["ply"]))
     assert out.returncode == 1
     data = json.loads(out.stdout)
-    assert data["intersecting"] is True and data["method"] == "bvh"
+    assert data["intersecting"] is True and data["method"] == "bvh" and len(data["files"]) == 3
     for rec in data["files"]:
         assert rec["pairs"] == obj_files["expected"].tolist()
         assert rec["stats"]["contacts"] == len(obj_files["expected"])
