@@ -32,6 +32,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("primitive_tests", U(s.primitive_tests)),
         ("contacts", U(s.contacts)),
         ("proximity_contacts", U(s.proximity_contacts)),
+        ("proximity_tests", U(s.proximity_tests)),
         ("triggered", B(s.triggered)),
         ("relax_steps", U(s.relax_steps as u64)),
         ("moving_particles", U(s.moving_particles as u64)),

@@ -1,5 +1,5 @@
 //! Profiling helper: repeated detections of one benchmark frame, best time.
-//! `cargo run --release -p selfcd --example prof -- SIZE STATE METHOD [REPS]`
+//! `cargo run --release -p selfcd --example prof -- SIZE STATE METHOD [REPS] [THICKNESS in mean edges]`
 use selfcd::scene::{grid, grid_side_for, BenchState};
 use selfcd::{new_detector, DetectorOptions, Mesh, Method};
 use std::sync::Arc;
@@ -10,11 +10,13 @@ fn main() {
     let state: BenchState = a[2].parse().unwrap();
     let method: Method = a[3].parse().unwrap();
     let reps: usize = a.get(4).map(|x| x.parse().unwrap()).unwrap_or(5);
+    let thickness: f64 = a.get(5).map(|x| x.parse().unwrap()).unwrap_or(0.0);
     let side = grid_side_for(n);
     let (v, f) = grid(side, 1.0);
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
     let p = state.deformation(side).apply(mesh.rest());
-    let mut d = new_detector(mesh, method, &DetectorOptions::default()).unwrap();
+    let opts = DetectorOptions { thickness: thickness * mesh.mean_edge_length(), ..Default::default() };
+    let mut d = new_detector(mesh, method, &opts).unwrap();
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
     for _ in 0..reps {
         let s = d.detect(&p).unwrap().stats;
@@ -23,6 +25,8 @@ fn main() {
         last = Some(s);
     }
     let s = last.unwrap();
-    println!("best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {}, primitive tests {}, contacts {}",
-        refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.primitive_tests, s.contacts);
+    println!(
+        "best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {}, primitive tests {}, contacts {}, proximity tests {}, proximity contacts {}",
+        refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.primitive_tests, s.contacts, s.proximity_tests, s.proximity_contacts
+    );
 }

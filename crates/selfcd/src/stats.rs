@@ -23,6 +23,8 @@ pub struct FrameStats {
     pub adjacent_skips: u64,
     /// Exact triangle-triangle tests run: the paper's polygon-polygon checks.
     pub primitive_tests: u64,
+    /// Leaf pairs given the proximity test (thickness > 0; its node pairs are in `node_pairs`).
+    pub proximity_tests: u64,
     /// Intersecting triangle pairs found.
     pub contacts: u64,
     /// Proximity contacts (vertex-triangle + edge-edge) found, when thickness > 0.

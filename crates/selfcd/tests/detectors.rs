@@ -265,6 +265,34 @@ fn exact_touching_on_integer_coordinates() {
     assert!(n > 0, "touching at a vertex counts");
 }
 
+/// Proximity keys by the definition: every vertex against every triangle not
+/// containing it, every edge against every edge sharing no vertex.
+fn naive_proximity(mesh: &Mesh, p: &[DVec3], d: f64) -> (Vec<(u32, u32)>, Vec<[u32; 2]>) {
+    use selfcd::geom::distance::{point_triangle_distance2, segment_segment_distance2};
+    let mut vt = Vec::new();
+    for v in 0..mesh.n_vertices() as u32 {
+        for (t, tri) in mesh.triangles().iter().enumerate() {
+            let [a, b, c] = mesh.corners(p, t);
+            if !tri.contains(&v) && point_triangle_distance2(p[v as usize], a, b, c).0 < d * d {
+                vt.push((v, t as u32));
+            }
+        }
+    }
+    let edges = &mesh.topology().edges;
+    let mut ee = Vec::new();
+    for i in 0..edges.len() {
+        for j in i + 1..edges.len() {
+            let ([a, b], [c, e]) = (edges[i], edges[j]);
+            let disjoint = ![c, e].contains(&a) && ![c, e].contains(&b);
+            let q = |k: u32| p[k as usize];
+            if disjoint && segment_segment_distance2(q(a), q(b), q(c), q(e)).0 < d * d {
+                ee.push([i as u32, j as u32]);
+            }
+        }
+    }
+    (vt, ee)
+}
+
 #[test]
 fn proximity_matches_brute() {
     for (mname, mesh) in meshes().into_iter().take(3) {
@@ -283,6 +311,7 @@ fn proximity_matches_brute() {
                 )
             };
             let (kw, kg) = (keys(&want), keys(&got));
+            assert!(kw == naive_proximity(&mesh, &p, d), "brute proximity differs from the element-pair loop on {mname}/{sname}");
             assert!(
                 kw == kg,
                 "proximity differs on {mname}/{sname}: brute {} vt {} ee, bvh {} vt {} ee",

@@ -95,7 +95,9 @@ impl Detector for BruteDetector {
                 positions,
                 thickness: self.thickness,
             };
-            det.proximity = collect_proximity(all_pairs(mesh, positions, self.thickness, &near).0);
+            let (items, tested, _) = all_pairs(mesh, positions, self.thickness, &near);
+            det.proximity = collect_proximity(items);
+            det.stats.proximity_tests = tested;
         }
         let s = &mut det.stats;
         s.traverse_time = t0.elapsed().as_secs_f64();

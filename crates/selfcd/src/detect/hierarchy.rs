@@ -6,6 +6,7 @@ use crate::bvh::traverse::{self_traverse, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
 use crate::mesh::Mesh;
+use crate::stats::Counters;
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;
@@ -65,6 +66,7 @@ impl BvhDetector {
             pairs,
             ..Default::default()
         };
+        let mut proximity = Counters::default();
         if self.thickness > 0.0 {
             let near = Proximity {
                 mesh,
@@ -76,11 +78,14 @@ impl BvhDetector {
                 contour: false,
                 gap: self.thickness,
             };
-            det.proximity =
-                collect_proximity(self_traverse(&self.bvh, mesh, positions, opts, &near).0);
+            let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
+            det.proximity = collect_proximity(items);
+            proximity = c;
         }
         let s = &mut det.stats;
         counters.write_to(s);
+        s.node_pairs += proximity.node_pairs;
+        s.proximity_tests = proximity.primitive_tests;
         s.traverse_time = t0.elapsed().as_secs_f64();
         det.count_contacts();
         det

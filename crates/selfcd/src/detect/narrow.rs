@@ -126,25 +126,32 @@ impl LeafVisitor for Proximity<'_> {
     type Item = Near;
     const SKIP_ADJACENT: bool = false;
 
+    /// Tests each element pair once: a vertex only from its first triangle, an
+    /// edge only from its first triangle (its *owner*). Complete, because a
+    /// vertex within d of triangle t lies in its owner's box, so the owner's
+    /// and t's boxes are within d and the traversal visits that pair; likewise
+    /// for the closest points of two edges.
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
+        let topo = self.mesh.topology();
         let tris = self.mesh.triangles();
-        for &v in &tris[a as usize] {
-            self.vertex_triangle(v, b, out);
+        let owns_vertex = |t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
+        let owns_edge = |t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
+        for (x, y) in [(a, b), (b, a)] {
+            for &v in &tris[x as usize] {
+                if owns_vertex(x, v) {
+                    self.vertex_triangle(v, y, out);
+                }
+            }
         }
-        for &v in &tris[b as usize] {
-            self.vertex_triangle(v, a, out);
-        }
-        let te = &self.mesh.topology().tri_edges;
-        for &ea in &te[a as usize] {
-            for &eb in &te[b as usize] {
+        for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
+            for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
                 self.edge_edge(ea, eb, out);
             }
         }
     }
 }
 
-/// Sorts and deduplicates raw proximity contacts (an element pair is seen from
-/// several triangle pairs).
+/// Sorts raw proximity contacts (each element pair is reported once, by its owners).
 pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
     let mut out = ProximityContacts::default();
     for it in items {
@@ -155,8 +162,6 @@ pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
     }
     out.vertex_triangle
         .sort_unstable_by_key(|x| (x.vertex, x.triangle));
-    out.vertex_triangle.dedup_by_key(|x| (x.vertex, x.triangle));
     out.edge_edge.sort_unstable_by_key(|x| x.edges);
-    out.edge_edge.dedup_by_key(|x| x.edges);
     out
 }
