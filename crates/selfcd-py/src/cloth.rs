@@ -278,3 +278,25 @@ impl PySimulation {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::debug_field_names;
+
+    #[test]
+    fn every_step_stats_field_is_exported() {
+        let engine = debug_field_names(&format!("{:?}", StepStats::default()));
+        let ours: Vec<&str> = step_fields(&StepStats::default())
+            .iter()
+            .map(|(k, _)| *k)
+            .collect();
+        assert!(engine.len() > 10, "parsed {engine:?}");
+        for name in engine.iter().filter(|n| *n != "detection") {
+            assert!(
+                ours.contains(&name.as_str()),
+                "StepStats.{name} is not exported by cloth::step_fields"
+            );
+        }
+    }
+}

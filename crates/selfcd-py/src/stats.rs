@@ -30,9 +30,9 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("contour_fails", U(s.contour_fails)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("primitive_tests", U(s.primitive_tests)),
+        ("proximity_tests", U(s.proximity_tests)),
         ("contacts", U(s.contacts)),
         ("proximity_contacts", U(s.proximity_contacts)),
-        ("proximity_tests", U(s.proximity_tests)),
         ("triggered", B(s.triggered)),
         ("relax_steps", U(s.relax_steps as u64)),
         ("moving_particles", U(s.moving_particles as u64)),
@@ -100,5 +100,51 @@ fn tri_state(v: &Value) -> i8 {
         Value::B(Some(true)) => 1,
         Value::B(Some(false)) => 0,
         _ => -1,
+    }
+}
+
+/// Field names of a struct from its derived `Debug` output (`Name { a: .., b: .. }`),
+/// so tests can check that the bindings export every field the engine has.
+#[cfg(test)]
+pub fn debug_field_names(debug: &str) -> Vec<String> {
+    let body =
+        &debug[debug.find('{').map_or(0, |i| i + 1)..debug.rfind('}').unwrap_or(debug.len())];
+    let mut names = Vec::new();
+    let mut depth = 0;
+    let mut token = String::new();
+    for c in body.chars() {
+        match c {
+            '{' | '(' | '[' => depth += 1,
+            '}' | ')' | ']' => depth -= 1,
+            ':' if depth == 0 && !token.trim().is_empty() => {
+                names.push(token.trim().trim_start_matches(',').trim().to_string());
+                token.clear();
+            }
+            ',' if depth == 0 => token.clear(),
+            _ if depth == 0 => token.push(c),
+            _ => {}
+        }
+    }
+    names
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_frame_stats_field_is_exported() {
+        let engine = debug_field_names(&format!("{:?}", FrameStats::default()));
+        let ours: Vec<&str> = fields(&FrameStats::default())
+            .iter()
+            .map(|(k, _)| *k)
+            .collect();
+        assert!(engine.len() > 10, "parsed {engine:?}");
+        for name in &engine {
+            assert!(
+                ours.contains(&name.as_str()),
+                "FrameStats.{name} is not exported by stats::fields"
+            );
+        }
     }
 }
