@@ -123,6 +123,17 @@ def test_demo_writes_report_and_summary(tmp_path: Path) -> None:
         assert m in out.stdout
 
 
+def test_demo_with_chosen_methods_and_resolution(tmp_path: Path) -> None:
+    out = run("demo", "--frames", "4", "--resolution", "6", "--method", "bvh", "--method", "sensor-gated",
+              "--out", str(tmp_path / "rep"))
+    assert out.returncode == 0, out.stderr
+    summary = json.loads((tmp_path / "rep" / "summary.json").read_text())
+    for scene in summary["scenes"]:
+        assert scene["triangles"] == 50 and list(scene["methods"]) == ["bvh", "sensor-gated"]
+        assert scene["methods"]["sensor-gated"]["triggered_frames"] is not None
+    assert run("demo", "--method", "fastest").returncode == 2
+
+
 def test_simulate_saves_frames_and_stats_that_detect_reads(tmp_path: Path) -> None:
     out = run("simulate", "--scene", "center", "--frames", "20", "--every", "2", "--out", str(tmp_path / "sim"))
     assert out.returncode == 0, out.stderr
