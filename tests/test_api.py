@@ -223,16 +223,25 @@ def _longest_stall_during(work) -> tuple[float, float]:
     return done[0], longest
 
 
+def _measure_growing(make_work, sizes=(2, 8, 32, 128)) -> tuple[float, float]:
+    """`_longest_stall_during` on ever larger work until one call takes over 0.3 s."""
+    for size in sizes:
+        took, stall = _longest_stall_during(make_work(size))
+        if took > 0.3:
+            break
+    return took, stall
+
+
 def test_long_calls_release_the_gil() -> None:
     V, F = selfcd.scenes.grid(150)
     P = selfcd.scenes.deform(V, "crumple", amplitude=0.3, wavelength=0.4, seed=5)
     mesh = selfcd.Mesh(V, F)
-    took, stall = _longest_stall_during(lambda: selfcd.compare_methods(mesh, np.stack([P] * 3), ["bvh"]))
-    assert took > 0.2, "the call should be long enough to tell"
+    took, stall = _measure_growing(lambda k: lambda: selfcd.compare_methods(mesh, np.stack([P] * k), ["bvh"]))
+    assert took > 0.3, "the call should be long enough to tell"
     assert stall < took / 2, f"compare_methods blocked Python for {stall:.3f} s of {took:.3f} s"
     sim = selfcd.Simulation("center", 30)
-    took, stall = _longest_stall_during(lambda: sim.run(20))
-    assert took > 0.2 and stall < took / 2, f"Simulation.run blocked Python for {stall:.3f} s of {took:.3f} s"
+    took, stall = _measure_growing(lambda k: lambda: sim.run(10 * k))
+    assert took > 0.3 and stall < took / 2, f"Simulation.run blocked Python for {stall:.3f} s of {took:.3f} s"
 
 
 def test_threads_detecting_at_once_agree() -> None:
