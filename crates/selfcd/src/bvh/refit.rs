@@ -14,14 +14,24 @@ impl Bvh {
     /// Refits every box and cone to `positions` (same vertex count as the mesh,
     /// checked by the caller).
     pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
-        let n = self.n_leaves;
-        let leaf = |t: usize| {
+        self.refit_with(|t| {
             let c = mesh.corners(positions, t);
-            (
-                Aabb::from_points(&c),
-                NormalCone::of_triangle(c[0], c[1], c[2]),
-            )
-        };
+            (Aabb::from_points(&c), NormalCone::of_triangle(c[0], c[1], c[2]))
+        });
+    }
+
+    /// Refits the boxes to the triangles swept linearly from `x0` to `x1` (for
+    /// continuous queries); cones become full, so no cone culling applies.
+    pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
+        self.refit_with(|t| {
+            let b = Aabb::from_points(&mesh.corners(x0, t)).union(&Aabb::from_points(&mesh.corners(x1, t)));
+            (b, NormalCone::FULL)
+        });
+    }
+
+    /// Sets every leaf's box and cone from `leaf(triangle)`, then merges upwards.
+    fn refit_with(&mut self, leaf: impl Fn(usize) -> (Aabb, NormalCone) + Sync) {
+        let n = self.n_leaves;
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
         if n >= PAR_MIN {
             boxes

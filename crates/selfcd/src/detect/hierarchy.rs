@@ -36,6 +36,11 @@ impl BvhDetector {
         &self.bvh
     }
 
+    /// Refits the boxes to the triangles swept from `x0` to `x1` (continuous queries).
+    pub(crate) fn refit_swept(&mut self, x0: &[DVec3], x1: &[DVec3]) {
+        self.bvh.refit_swept(&self.mesh, x0, x1);
+    }
+
     /// Refits boxes and cones to `positions` (already checked); returns seconds spent.
     pub fn refit(&mut self, positions: &[DVec3]) -> f64 {
         let t0 = Instant::now();

@@ -7,9 +7,13 @@
 //! | `bvh-cones`         | BVH + normal cones (the paper)      | no: misses counted in tests |
 //! | `bvh-cones-contour` | BVH + cones + star contour test     | yes (default) |
 //! | `sensor-gated`      | particle sensor, then a BVH method  | no: misses counted by `compare` |
+//!
+//! Proximity (thickness > 0) and continuous queries ([`continuous`]) use the
+//! same hierarchy with boxes only.
 
 pub mod brute;
 pub mod compare;
+pub mod continuous;
 pub mod hierarchy;
 pub mod narrow;
 pub mod sensor_gated;

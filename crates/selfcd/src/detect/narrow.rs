@@ -126,27 +126,45 @@ impl LeafVisitor for Proximity<'_> {
     type Item = Near;
     const SKIP_ADJACENT: bool = false;
 
-    /// Tests each element pair once: a vertex only from its first triangle, an
-    /// edge only from its first triangle (its *owner*). Complete, because a
-    /// vertex within d of triangle t lies in its owner's box, so the owner's
-    /// and t's boxes are within d and the traversal visits that pair; likewise
-    /// for the closest points of two edges.
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
-        let topo = self.mesh.topology();
-        let tris = self.mesh.triangles();
-        let owns_vertex = |t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
-        let owns_edge = |t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
-        for (x, y) in [(a, b), (b, a)] {
-            for &v in &tris[x as usize] {
-                if owns_vertex(x, v) {
-                    self.vertex_triangle(v, y, out);
-                }
+        for_each_owned_pair(self.mesh, a, b, |pair| match pair {
+            ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
+            ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
+        });
+    }
+}
+
+/// A pair of mesh elements that may touch: (vertex, triangle) or (edge, edge).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ElementPair {
+    /// A vertex and a triangle.
+    VertexTriangle(u32, u32),
+    /// Two edges.
+    EdgeEdge(u32, u32),
+}
+
+/// Calls `f` for the element pairs that
+/// the triangle pair (a, b) owns, so that over all triangle pairs each element
+/// pair comes up exactly once: a vertex is tested only from its first triangle,
+/// an edge only from its first triangle (its *owner*). Complete for any query
+/// whose leaf boxes contain the elements (proximity, swept boxes): a vertex near
+/// triangle t lies in its owner's box, so the traversal visits (owner, t);
+/// likewise for two edges. Incident pairs are passed on; the callee skips them.
+pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(ElementPair)) {
+    let topo = mesh.topology();
+    let tris = mesh.triangles();
+    let owns_vertex = |t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
+    let owns_edge = |t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
+    for (x, y) in [(a, b), (b, a)] {
+        for &v in &tris[x as usize] {
+            if owns_vertex(x, v) {
+                f(ElementPair::VertexTriangle(v, y));
             }
         }
-        for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
-            for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
-                self.edge_edge(ea, eb, out);
-            }
+    }
+    for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
+        for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
+            f(ElementPair::EdgeEdge(ea, eb));
         }
     }
 }

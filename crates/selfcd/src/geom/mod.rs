@@ -1,6 +1,7 @@
 //! Geometry: boxes, normal cones, exact predicates and the primitive tests.
 
 pub mod aabb;
+pub mod ccd;
 pub mod cone;
 pub mod distance;
 pub mod predicates;
