@@ -157,6 +157,32 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> np.ndar
     return _core.self_intersections(mesh._inner, _arrays.points(vertices))
 
 
+def continuous_impacts(
+    mesh: Mesh, x0: npt.ArrayLike, x1: npt.ArrayLike, separation: float = 0.0
+) -> dict[str, np.ndarray]:
+    """Continuous query: element pairs that come within `separation` during a linear step.
+
+    Every vertex moves on a straight line from `x0` to `x1`. No false negatives:
+    each vertex-triangle or edge-edge pair (not sharing a vertex) that comes
+    within `separation` is reported, with a time of impact in [0, 1] no later
+    than when it does.
+
+    Args:
+        mesh: the mesh.
+        x0, x1: (n, 3) float positions at the start and the end of the step.
+        separation: distance that counts as contact (>= 0).
+
+    Returns:
+        "vertex_triangle" (k, 2) int64 (vertex, face) and "vertex_triangle_toi"
+        (k,) float64; "edge_edge" (m, 2) int64 edge ids (rows of `mesh.edges`)
+        and "edge_edge_toi" (m,) float64.
+    """
+    n = mesh.n_vertices
+    return _core.continuous_impacts(
+        mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n), float(separation)
+    )
+
+
 def compare_methods(
     mesh: Mesh,
     frames: npt.ArrayLike,

@@ -68,6 +68,9 @@ class Detector:
 def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
     """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
 
+def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, separation: float = 0.0) -> dict[str, np.ndarray]:
+    """Element pairs coming within `separation` during the linear step x0 -> x1, with times of impact."""
+
 def compare_methods(mesh: Mesh, frames: np.ndarray, methods: list[str] | None = None, thickness: float = 0.0,
                     progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:
     """Every method over the same (f,n,3) frames, misses counted against the exact reference."""

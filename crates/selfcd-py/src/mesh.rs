@@ -2,8 +2,9 @@
 
 use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
-use numpy::PyReadonlyArray2;
+use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use selfcd::Mesh;
 use std::sync::Arc;
 
@@ -90,4 +91,37 @@ pub fn self_intersections<'py>(
     let m = mesh.inner.clone();
     let pairs = py.detach(|| guard("self_intersections", || selfcd::self_intersections(&m, &p)))?;
     pairs_array(py, &pairs)
+}
+
+/// Continuous query: every vertex-triangle and edge-edge pair that comes within
+/// `separation` while the mesh moves linearly from `x0` to `x1`, as a dict of
+/// (k,2) int64 pairs and (k,) float64 conservative times of impact in [0, 1].
+#[pyfunction]
+#[pyo3(signature = (mesh, x0, x1, separation=0.0))]
+pub fn continuous_impacts<'py>(
+    py: Python<'py>,
+    mesh: &PyMesh,
+    x0: PyReadonlyArray2<'_, f64>,
+    x1: PyReadonlyArray2<'_, f64>,
+    separation: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    use selfcd::detect::continuous::Impact;
+    use selfcd::detect::narrow::ElementPair;
+    let (a, b) = (points(&x0, "x0")?, points(&x1, "x1")?);
+    let m = mesh.inner.clone();
+    let found = py.detach(|| {
+        guard("continuous_impacts", || {
+            let mut det = selfcd::detect::hierarchy::BvhDetector::new(m, selfcd::Method::Bvh, 0.0);
+            det.continuous(&a, &b, separation)
+        })
+    })?;
+    let ids = |i: &Impact| match i.pair {
+        ElementPair::VertexTriangle(x, y) | ElementPair::EdgeEdge(x, y) => [x as i64, y as i64],
+    };
+    let d = PyDict::new(py);
+    d.set_item("vertex_triangle", rows_array(py, found.vertex_triangle.iter().map(ids))?)?;
+    d.set_item("vertex_triangle_toi", PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)))?;
+    d.set_item("edge_edge", rows_array(py, found.edge_edge.iter().map(ids))?)?;
+    d.set_item("edge_edge_toi", PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)))?;
+    Ok(d)
 }

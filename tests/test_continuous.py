@@ -1,0 +1,47 @@
+"""Continuous queries from Python: impacts found, conservative, bad input rejected."""
+
+import numpy as np
+import pytest
+
+import selfcd
+
+
+def _fold_step():
+    V, F = selfcd.scenes.grid(9)
+    x0 = selfcd.scenes.deform(V, "fold", angle=0.9 * np.pi, radius=0.02)
+    x1 = selfcd.scenes.deform(V, "fold", angle=1.15 * np.pi, radius=0.02)
+    return selfcd.Mesh(V, F), F, x0, x1
+
+
+def test_a_fold_through_itself_is_caught_before_it_intersects():
+    mesh, F, x0, x1 = _fold_step()
+    assert len(selfcd.self_intersections(x0, F)) == 0
+    hits = selfcd.continuous_impacts(mesh, x0, x1)
+    assert hits["vertex_triangle"].dtype == np.int64 and hits["vertex_triangle"].shape[1] == 2
+    tois = np.concatenate([hits["vertex_triangle_toi"], hits["edge_edge_toi"]])
+    assert len(tois) > 0 and np.all((tois >= 0) & (tois <= 1))
+    # The first sampled time with an intersection is not before the earliest impact.
+    first = next(s for s in np.linspace(0, 1, 65)[1:] if len(selfcd.self_intersections(x0 + s * (x1 - x0), F)))
+    assert tois.min() <= first
+    edges = mesh.edges
+    assert hits["edge_edge"].max(initial=0) < len(edges)
+
+
+def test_a_still_mesh_has_no_impacts_and_separation_counts():
+    mesh, F, x0, _ = _fold_step()
+    hits = selfcd.continuous_impacts(mesh, x0, x0)
+    assert all(len(hits[k]) == 0 for k in hits)
+    near = selfcd.continuous_impacts(mesh, x0, x0, separation=0.2)
+    assert len(near["vertex_triangle"]) > 0 and np.all(near["vertex_triangle_toi"] == 0.0)
+
+
+def test_bad_inputs_raise():
+    mesh, F, x0, x1 = _fold_step()
+    with pytest.raises(ValueError):
+        selfcd.continuous_impacts(mesh, x0[:5], x1)
+    with pytest.raises(ValueError):
+        selfcd.continuous_impacts(mesh, x0, x1, separation=-1.0)
+    bad = x1.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError):
+        selfcd.continuous_impacts(mesh, x0, bad)
