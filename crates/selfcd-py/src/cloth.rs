@@ -20,7 +20,7 @@ pub fn paper_scenes() -> Vec<&'static str> {
 }
 
 /// Scalar fields of StepStats (the detection stats are kept apart).
-fn step_fields(s: &StepStats) -> [(&'static str, f64); 14] {
+fn step_fields(s: &StepStats) -> [(&'static str, f64); 16] {
     [
         ("iterations", s.iterations as f64),
         ("residual", s.residual),
@@ -28,6 +28,8 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 14] {
         ("vertex_triangle", s.vertex_triangle as f64),
         ("constrained", s.constrained as f64),
         ("impulses", s.impulses as f64),
+        ("ccd_rounds", s.ccd_rounds as f64),
+        ("ccd_impacts", s.ccd_impacts as f64),
         ("reverted", s.reverted as f64),
         ("zones", s.zones as f64),
         ("correction_rounds", s.correction_rounds as f64),

@@ -16,6 +16,7 @@
 use super::model::{Cloth, Energy};
 use super::response::{self, ContactKind, ContactParams, StepStart};
 use super::solver::{Filter, Pcg, PcgOptions, System};
+use crate::detect::hierarchy::BvhDetector;
 use crate::detect::{new_detector, Detection, Detector, DetectorOptions, Method};
 use crate::error::{Error, Result};
 use crate::stats::FrameStats;
@@ -65,6 +66,11 @@ impl SimOptions {
     }
 }
 
+/// Pairs closer than this fraction of the thickness count as meeting in the continuous stage.
+const CONTINUOUS_SEPARATION: f64 = 0.5;
+/// Most continuous queries per step.
+const CONTINUOUS_ROUNDS: u32 = 4;
+
 /// What one step did and cost. Times are wall-clock seconds.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepStats {
@@ -82,6 +88,10 @@ pub struct StepStats {
     pub constrained: usize,
     /// Contact impulses applied.
     pub impulses: u64,
+    /// Continuous queries run by the continuous stage.
+    pub ccd_rounds: u32,
+    /// Element pairs the continuous stage found meeting during the step (all rounds).
+    pub ccd_impacts: u64,
     /// Vertices whose end-of-step motion the correction stage replaced by the
     /// rigid motion of their impact zone (or froze at the start of the step).
     pub reverted: usize,
@@ -111,6 +121,8 @@ pub struct Simulation {
     inv_mass: Vec<f64>,
     detector: Box<dyn Detector>,
     guard: Option<Box<dyn Detector>>,
+    /// Hierarchy for the continuous stage (swept boxes), when self-collision is on.
+    continuous: Option<BvhDetector>,
     pending: Option<Detection>,
     system: System,
     pcg: Pcg,
@@ -141,6 +153,7 @@ impl Simulation {
                 &DetectorOptions::default(),
             )?)
         };
+        let continuous = opts.self_collision.then(|| BvhDetector::new(mesh.clone(), Method::Bvh, 0.0));
         let n = mesh.n_vertices();
         Ok(Simulation {
             x: mesh.rest().to_vec(),
@@ -153,6 +166,7 @@ impl Simulation {
             opts,
             detector,
             guard,
+            continuous,
             pending: None,
             time: 0.0,
             steps: 0,
@@ -273,6 +287,14 @@ impl Simulation {
             h,
         )
         .impulses;
+        if let Some(query) = self.continuous.as_mut() {
+            let separation = CONTINUOUS_SEPARATION * self.opts.contact.thickness;
+            let c = response::continuous_impulses(query, &x0, &self.inv_mass, &mut self.v, h, separation, CONTINUOUS_ROUNDS)?;
+            (st.ccd_rounds, st.ccd_impacts) = (c.rounds, c.impacts);
+            st.impulses += c.impulses;
+            st.detect_time += c.detect_time;
+            st.response_time -= c.detect_time;
+        }
         for (x, v) in self.x.iter_mut().zip(&self.v) {
             *x += *v * h;
         }
