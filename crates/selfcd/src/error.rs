@@ -42,3 +42,12 @@ pub enum Error {
 
 /// Result with the engine's error type.
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// Looks `s` up among `all` by `name`; the error lists the valid names.
+/// One parser for every enum chosen by name (methods, scenes, states).
+pub fn parse_name<T: Copy>(s: &str, all: &[T], name: impl Fn(T) -> &'static str, what: &str) -> Result<T> {
+    all.iter().copied().find(|&x| name(x) == s).ok_or_else(|| {
+        let names: Vec<_> = all.iter().map(|&x| name(x)).collect();
+        Error::InvalidParameter(format!("unknown {what} {s:?}; expected one of {}", names.join(", ")))
+    })
+}

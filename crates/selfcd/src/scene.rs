@@ -152,14 +152,7 @@ impl BenchState {
 impl std::str::FromStr for BenchState {
     type Err = crate::Error;
     fn from_str(s: &str) -> crate::Result<BenchState> {
-        BenchState::ALL
-            .into_iter()
-            .find(|b| b.name() == s)
-            .ok_or_else(|| {
-                crate::Error::InvalidParameter(format!(
-                    "unknown state {s:?}; expected flat, crumpled or folded"
-                ))
-            })
+        crate::error::parse_name(s, &BenchState::ALL, BenchState::name, "state")
     }
 }
 

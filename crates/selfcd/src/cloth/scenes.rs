@@ -88,16 +88,7 @@ impl std::fmt::Display for PaperScene {
 impl FromStr for PaperScene {
     type Err = Error;
     fn from_str(s: &str) -> Result<PaperScene> {
-        PaperScene::ALL
-            .into_iter()
-            .find(|x| x.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<_> = PaperScene::ALL.iter().map(|x| x.name()).collect();
-                Error::InvalidParameter(format!(
-                    "unknown cloth scene {s:?}; expected one of {}",
-                    names.join(", ")
-                ))
-            })
+        crate::error::parse_name(s, &PaperScene::ALL, PaperScene::name, "cloth scene")
     }
 }
 

@@ -78,16 +78,7 @@ impl std::fmt::Display for Method {
 impl FromStr for Method {
     type Err = Error;
     fn from_str(s: &str) -> Result<Method> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
-                Error::InvalidParameter(format!(
-                    "unknown method {s:?}; expected one of {}",
-                    names.join(", ")
-                ))
-            })
+        crate::error::parse_name(s, &Method::ALL, Method::name, "method")
     }
 }
 
