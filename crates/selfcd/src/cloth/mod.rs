@@ -5,7 +5,7 @@
 //! - [`model`]: [`Cloth`] (masses from rest areas, gravity, pins) and [`Material`].
 //! - [`matrix`]: the flat sparse 3x3-block matrix and deterministic parallel kernels.
 //! - [`solver`]: backward Euler system and the filtered PCG (Baraff & Witkin 1998).
-//! - [`response`]: self-contact in the solve, impulses, and the end-of-step correction.
+//! - [`response`]: self-contact in the solve, impulses, continuous collisions, and the end-of-step correction.
 //! - [`sim`]: [`Simulation`], stepping a cloth with a detector.
 //! - [`scenes`]: the paper's three scenes, [`PaperScene`].
 
