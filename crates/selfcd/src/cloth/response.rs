@@ -137,38 +137,57 @@ fn unit_or(v: DVec3, scale: f64, fallback: DVec3) -> DVec3 {
 /// Turns the detector's proximity contacts at positions `x` into [`Contact`]s,
 /// vertex-triangle contacts first, each list in the detector's sorted order.
 pub fn gather(mesh: &Mesh, x: &[DVec3], found: &ProximityContacts) -> Vec<Contact> {
+    let at = |k: u32| x[k as usize];
+    let vt = found
+        .vertex_triangle
+        .iter()
+        .map(|c| vertex_triangle_contact(mesh, at, c.vertex, c.triangle, c.bary, c.distance));
+    let ee = found
+        .edge_edge
+        .iter()
+        .map(|c| edge_edge_contact(mesh, at, c.edges, c.params, c.distance));
+    vt.chain(ee).collect()
+}
+
+/// Vertex `v` against triangle `t` at positions `at`, closest point at barycentrics `w`.
+fn vertex_triangle_contact(
+    mesh: &Mesh,
+    at: impl Fn(u32) -> DVec3,
+    v: u32,
+    t: u32,
+    w: [f64; 3],
+    distance: f64,
+) -> Contact {
+    let scale = mesh.mean_edge_length();
+    let tri = mesh.triangles()[t as usize];
+    let [a, b, c] = tri.map(&at);
+    let q = a * w[0] + b * w[1] + c * w[2];
+    let face = unit_or((b - a).cross(c - a), scale * scale, DVec3::Z);
+    Contact {
+        verts: [v, tri[0], tri[1], tri[2]],
+        weights: [1.0, -w[0], -w[1], -w[2]],
+        normal: unit_or(at(v) - q, scale, face),
+        distance,
+        kind: ContactKind::VertexTriangle,
+    }
+}
+
+/// Edges `e` at positions `at`, closest points at parameters `st` along each.
+fn edge_edge_contact(mesh: &Mesh, at: impl Fn(u32) -> DVec3, e: [u32; 2], st: [f64; 2], distance: f64) -> Contact {
     let scale = mesh.mean_edge_length();
     let edges = &mesh.topology().edges;
-    let mut out = Vec::with_capacity(found.vertex_triangle.len() + found.edge_edge.len());
-    for c in &found.vertex_triangle {
-        let t = mesh.triangles()[c.triangle as usize];
-        let [a, b, cc] = mesh.corners(x, c.triangle as usize);
-        let w = c.bary;
-        let q = a * w[0] + b * w[1] + cc * w[2];
-        let face = unit_or((b - a).cross(cc - a), scale * scale, DVec3::Z);
-        out.push(Contact {
-            verts: [c.vertex, t[0], t[1], t[2]],
-            weights: [1.0, -w[0], -w[1], -w[2]],
-            normal: unit_or(x[c.vertex as usize] - q, scale, face),
-            distance: c.distance,
-            kind: ContactKind::VertexTriangle,
-        });
+    let ([a, b], [p, q]) = (edges[e[0] as usize], edges[e[1] as usize]);
+    let [s, t] = st;
+    let (xa, xb, xp, xq) = (at(a), at(b), at(p), at(q));
+    let across = unit_or((xb - xa).cross(xq - xp), scale * scale, DVec3::Z);
+    let gap = (xa + (xb - xa) * s) - (xp + (xq - xp) * t);
+    Contact {
+        verts: [a, b, p, q],
+        weights: [1.0 - s, s, t - 1.0, -t],
+        normal: unit_or(gap, scale, across),
+        distance,
+        kind: ContactKind::EdgeEdge,
     }
-    for c in &found.edge_edge {
-        let ([a, b], [p, q]) = (edges[c.edges[0] as usize], edges[c.edges[1] as usize]);
-        let [s, t] = c.params;
-        let (xa, xb, xp, xq) = (x[a as usize], x[b as usize], x[p as usize], x[q as usize]);
-        let across = unit_or((xb - xa).cross(xq - xp), scale * scale, DVec3::Z);
-        let gap = (xa + (xb - xa) * s) - (xp + (xq - xp) * t);
-        out.push(Contact {
-            verts: [a, b, p, q],
-            weights: [1.0 - s, s, t - 1.0, -t],
-            normal: unit_or(gap, scale, across),
-            distance: c.distance,
-            kind: ContactKind::EdgeEdge,
-        });
-    }
-    out
 }
 
 /// The relative normal velocity a contact must reach this step (see the module doc).
@@ -336,35 +355,17 @@ pub fn continuous_impulses(
 /// The contact of an impact at its time: closest points and normal there.
 fn impact_contact(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], i: &Impact) -> Contact {
     let at = |k: u32| x0[k as usize].lerp(x1[k as usize], i.toi);
-    let scale = mesh.mean_edge_length();
     match i.pair {
-        ElementPair::VertexTriangle(vtx, t) => {
-            let tri = mesh.triangles()[t as usize];
-            let (p, [a, b, c]) = (at(vtx), tri.map(at));
-            let (d2, w) = point_triangle_distance2(p, a, b, c);
-            let face = unit_or((b - a).cross(c - a), scale * scale, DVec3::Z);
-            Contact {
-                verts: [vtx, tri[0], tri[1], tri[2]],
-                weights: [1.0, -w[0], -w[1], -w[2]],
-                normal: unit_or(p - (a * w[0] + b * w[1] + c * w[2]), scale, face),
-                distance: d2.sqrt(),
-                kind: ContactKind::VertexTriangle,
-            }
+        ElementPair::VertexTriangle(v, t) => {
+            let [a, b, c] = mesh.triangles()[t as usize].map(at);
+            let (d2, w) = point_triangle_distance2(at(v), a, b, c);
+            vertex_triangle_contact(mesh, at, v, t, w, d2.sqrt())
         }
         ElementPair::EdgeEdge(e0, e1) => {
             let edges = &mesh.topology().edges;
             let ([a, b], [p, q]) = (edges[e0 as usize], edges[e1 as usize]);
-            let (xa, xb, xp, xq) = (at(a), at(b), at(p), at(q));
-            let (d2, s, t) = segment_segment_distance2(xa, xb, xp, xq);
-            let across = unit_or((xb - xa).cross(xq - xp), scale * scale, DVec3::Z);
-            let gap = (xa + (xb - xa) * s) - (xp + (xq - xp) * t);
-            Contact {
-                verts: [a, b, p, q],
-                weights: [1.0 - s, s, t - 1.0, -t],
-                normal: unit_or(gap, scale, across),
-                distance: d2.sqrt(),
-                kind: ContactKind::EdgeEdge,
-            }
+            let (d2, s, t) = segment_segment_distance2(at(a), at(b), at(p), at(q));
+            edge_edge_contact(mesh, at, [e0, e1], [s, t], d2.sqrt())
         }
     }
 }
