@@ -46,8 +46,9 @@ pub fn build_options(
 }
 
 /// Names of the particle sensor's options (fields of the engine's `SensorParams`).
-pub const SENSOR_OPTIONS: [&str; 11] = [
+pub const SENSOR_OPTIONS: [&str; 12] = [
     "count",
+    "max_count",
     "a",
     "b",
     "n_min",
@@ -65,6 +66,7 @@ fn set_sensor_option(p: &mut SensorParams, key: &str, v: &Bound<'_, PyAny>) -> P
     let bad = |what: &str| PyTypeError::new_err(format!("sensor option {key:?} must be {what}"));
     match key {
         "count" => p.count = v.extract().map_err(|_| bad("a non-negative integer"))?,
+        "max_count" => p.max_count = v.extract().map_err(|_| bad("a non-negative integer"))?,
         "a" => p.a = v.extract().map_err(|_| bad("a number"))?,
         "b" => p.b = v.extract().map_err(|_| bad("a number"))?,
         "n_min" => p.n_min = v.extract().map_err(|_| bad("a non-negative integer"))?,

@@ -116,6 +116,7 @@ pub fn sensor_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let p = SensorParams::default();
     let d = PyDict::new(py);
     d.set_item("count", p.count)?;
+    d.set_item("max_count", p.max_count)?;
     d.set_item("a", p.a)?;
     d.set_item("b", p.b)?;
     d.set_item("n_min", p.n_min)?;

@@ -299,6 +299,84 @@ pub fn scale(positions: &[DVec3], s: f64) -> Vec<DVec3> {
     positions.iter().map(|&p| p * s).collect()
 }
 
+/// A closed tube (no caps) along x: `n_around x n_along` vertices, radius
+/// `radius`, length `length`, starting at x = 0. A curved rest shape for the
+/// particle sensor's tests and benchmarks.
+pub fn tube(
+    n_around: usize,
+    n_along: usize,
+    radius: f64,
+    length: f64,
+) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut v = Vec::with_capacity(n_around * n_along);
+    for j in 0..n_along {
+        for i in 0..n_around {
+            let a = 2.0 * PI * i as f64 / n_around as f64;
+            let x = length * j as f64 / (n_along - 1) as f64;
+            v.push([x, radius * a.cos(), radius * a.sin()]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * n_around + i % n_around) as u32;
+    let mut f = Vec::with_capacity(2 * n_around * (n_along - 1));
+    for j in 0..n_along - 1 {
+        for i in 0..n_around {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            f.push([a, b, c]);
+            f.push([a, c, d]);
+        }
+    }
+    (v, f)
+}
+
+/// A latitude-longitude sphere of radius `radius` about the origin with
+/// `n_lat` rings between the poles and `n_lon` vertices per ring.
+pub fn sphere(n_lat: usize, n_lon: usize, radius: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut v = vec![[0.0, 0.0, radius]];
+    for k in 1..=n_lat {
+        let theta = PI * k as f64 / (n_lat + 1) as f64;
+        for i in 0..n_lon {
+            let phi = 2.0 * PI * i as f64 / n_lon as f64;
+            v.push([
+                radius * theta.sin() * phi.cos(),
+                radius * theta.sin() * phi.sin(),
+                radius * theta.cos(),
+            ]);
+        }
+    }
+    v.push([0.0, 0.0, -radius]);
+    let south = (v.len() - 1) as u32;
+    let id = |k: usize, i: usize| (1 + (k - 1) * n_lon + i % n_lon) as u32;
+    let mut f = Vec::new();
+    for i in 0..n_lon {
+        f.push([0, id(1, i), id(1, i + 1)]);
+        f.push([south, id(n_lat, i + 1), id(n_lat, i)]);
+    }
+    for k in 1..n_lat {
+        for i in 0..n_lon {
+            let (a, b, c, d) = (id(k, i), id(k + 1, i), id(k + 1, i + 1), id(k, i + 1));
+            f.push([a, b, c]);
+            f.push([a, c, d]);
+        }
+    }
+    (v, f)
+}
+
+/// Pinches `rest` (any shape) towards the plane x = c (c the x-midpoint of its
+/// bounds) near the plane z = zc: x' = c + (x - c) (1 - depth g(z)), with g a
+/// Gaussian of width a quarter of the z extent. Past depth 1 the two sides pass
+/// through each other: a sphere squeezed until it folds.
+pub fn pinch(rest: &[DVec3], depth: f64) -> Vec<DVec3> {
+    let (lo, hi, _) = frame(rest);
+    let (c, zc) = (0.5 * (lo.x + hi.x), 0.5 * (lo.z + hi.z));
+    let width = (0.25 * (hi.z - lo.z)).max(f64::MIN_POSITIVE);
+    rest.iter()
+        .map(|p| {
+            let g = (-((p.z - zc) / width).powi(2)).exp();
+            DVec3::new(c + (p.x - c) * (1.0 - depth * g), p.y, p.z)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -325,3 +403,4 @@ mod tests {
         assert!((p[100].z - 0.1).abs() < 1e-9 && p[100].x < 0.6);
     }
 }
+

@@ -7,6 +7,7 @@ use super::hierarchy::BvhDetector;
 use super::{Detection, Detector, Method};
 use crate::error::Result;
 use crate::mesh::Mesh;
+use crate::sensor::parts::convex_parts;
 use crate::sensor::{Relaxation, Sensor, SensorParams};
 use crate::stats::FrameStats;
 use glam::DVec3;
@@ -22,13 +23,21 @@ pub struct SensorGatedDetector {
 }
 
 impl SensorGatedDetector {
-    /// Builds the BVH and places the particles. Errors: invalid parameters or a
-    /// curved rest shape ([`crate::Error::CurvedRestShape`]).
+    /// Builds the BVH and places the particles; any mesh (curved rest shape,
+    /// several components, one triangle). Errors: invalid parameters.
+    /// The particle count is the rest shape's number of convex parts
+    /// ([`crate::sensor::parts`]), clamped to [`count`, `max_count`].
     pub fn new(mesh: Arc<Mesh>, thickness: f64, params: &SensorParams) -> Result<Self> {
+        params.validate()?;
+        let bvh = BvhDetector::new(mesh.clone(), params.inner, thickness);
+        let parts = convex_parts(bvh.bvh());
+        let params = SensorParams {
+            count: parts.clamp(params.count, params.max_count),
+            ..params.clone()
+        };
         let mut sensor = Sensor::new(mesh.clone(), params.clone())?;
         sensor.set_margin(thickness);
         let particles = sensor.positions(mesh.rest());
-        let bvh = BvhDetector::new(mesh, params.inner, thickness);
         Ok(SensorGatedDetector {
             bvh,
             sensor,

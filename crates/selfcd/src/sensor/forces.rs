@@ -12,9 +12,16 @@
 //! divided by the mean rest edge length L before use, so a and b, and the
 //! forces, do not depend on the mesh's scale. Pairs with ro = 0 (one particle
 //! on top of another in rest space) exert nothing; with rs = 0 the attraction
-//! has no direction and is left out.
+//! has no direction and is left out. Between components ro is infinite: t = 1
+//! and no repulsion.
+//!
+//! On a curved rest shape t is measured against the rest chord c0 = |R_j - R_i|
+//! instead, t = (c0 - rs) / c0: how much closer the pair is than at rest. The
+//! paper's t is that on its flat sheet (c0 = ro); with ro in its place, every
+//! pair of a sphere or tube at rest would attract (the chord is shorter than the
+//! geodesic) and the particles would bunch up where nothing folded.
 
-use super::odl::{original_distance, path_tangent};
+use super::odl::{OriginalDistance, Path};
 use super::particle::SurfacePoint;
 use super::tangent::TriMap;
 use crate::mesh::Mesh;
@@ -47,32 +54,49 @@ impl Local {
     }
 }
 
-/// Force on particle `i` from particle `j` (normalised units), per the formula above.
+/// Force on particle `i` from particle `j` (normalised units), per the formula
+/// above; `path` is the original path from i to j.
 #[inline]
-pub fn pair_force(i: &Local, j: &Local, a: f64, b: f64) -> DVec3 {
-    let ro = original_distance(i.rest, j.rest);
+pub fn pair_force(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> DVec3 {
+    let ro = path.length;
     if !(ro > TINY) {
         return DVec3::ZERO;
     }
     let chord = j.current - i.current;
     let rs = chord.length();
+    let c0 = if path.chord > TINY { path.chord } else { ro };
+    let t = if ro.is_finite() { (c0 - rs) / c0 } else { 1.0 };
     let attract = if rs > TINY {
-        chord * ((ro - rs) / ro * a / (rs * rs * rs))
+        chord * (t * a / (rs * rs * rs))
     } else {
         DVec3::ZERO
     };
-    attract - path_tangent(&i.map, i.rest, j.rest) * (b / (ro * ro))
+    if !ro.is_finite() {
+        return attract;
+    }
+    let tangent = i
+        .map
+        .to_current(path.direction)
+        .map_or(DVec3::ZERO, |v| v.normalize_or_zero());
+    attract - tangent * (b / (ro * ro))
 }
 
 /// Writes F_i for every particle i (normalised units, current-space directions) into `out`.
-pub fn forces(locals: &[Local], a: f64, b: f64, out: &mut Vec<DVec3>) {
+pub fn forces(
+    locals: &[Local],
+    points: &[SurfacePoint],
+    odl: &OriginalDistance,
+    a: f64,
+    b: f64,
+    out: &mut Vec<DVec3>,
+) {
     out.clear();
     out.extend(locals.iter().enumerate().map(|(i, li)| {
         locals
             .iter()
             .enumerate()
             .filter(|&(j, _)| j != i)
-            .map(|(_, lj)| pair_force(li, lj, a, b))
+            .map(|(j, lj)| pair_force(li, lj, &odl.path(points, i, j), a, b))
             .sum::<DVec3>()
     }));
 }

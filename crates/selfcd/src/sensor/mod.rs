@@ -4,25 +4,35 @@
 //! - [`particle`]: a particle is a surface point (triangle + barycentric).
 //! - [`tangent`]: tangent vectors of a triangle, in rest and current shape.
 //! - [`walk`]: moving a particle along the surface, across triangles.
-//! - [`odl`]: original distance and path direction; flat rest shapes only.
+//! - [`components`]: connected components (no surface path between them).
+//! - [`geodesic`]: geodesic distance fields on the rest mesh (fast marching).
+//! - [`odl`]: original distance and path direction: chord on flat rest
+//!   shapes, geodesic fields on curved ones, infinite between components.
 //! - [`forces`]: the paper's attraction and repulsion.
-//! - [`place`]: deterministic initial placement.
+//! - [`parts`]: convex parts from the hierarchy's normal cones (the particle count).
+//! - [`place`]: deterministic initial placement, shared among components.
 //! - [`relax`]: per-frame relaxation (N_min, N_max) and the trigger.
+//! - [`units`]: the sensor's scale-free, snapped frame.
 //! - [`params`]: every constant, with its default.
 //!
 //! All lengths the sensor reasons in are in units of the mesh's mean rest edge
-//! length, so its behaviour does not depend on the mesh's scale.
+//! length, in a snapped frame ([`units`]), so its behaviour does not depend on
+//! the mesh's scale.
 
 // Guards are written `!(x > limit)` on purpose: they are true for NaN too.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod components;
 pub mod forces;
+pub mod geodesic;
 pub mod odl;
 pub mod params;
 pub mod particle;
+pub mod parts;
 pub mod place;
 pub mod relax;
 pub mod tangent;
+pub mod units;
 pub mod walk;
 
 pub use params::SensorParams;

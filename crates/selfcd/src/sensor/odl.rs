@@ -1,23 +1,50 @@
 //! Original distance (ODL, paper 2.2): the length of the shortest path between
-//! two particles along the surface, and the direction of that path.
+//! two particles along the rest surface, and the direction of that path at the
+//! first particle.
 //!
 //! The rest shape is the cloth "before it deforms"; cloth neither stretches
 //! much nor changes its topology, so the surface distance is measured in rest
-//! space. For a flat rest shape the shortest surface path is the straight
-//! rest-space segment, ro = |R_j - R_i|, exact whenever the segment stays on
-//! the sheet (always for a convex sheet such as the paper's square; for a sheet
-//! with holes or notches it is a lower bound). The path's tangent at particle
-//! i is the rest direction R_j - R_i carried to the current shape through the
-//! deformation of i's triangle. Curved rest shapes need a geodesic on the rest
-//! mesh, which is not implemented: [`check_flat`] refuses them.
+//! space, with three cases:
+//!
+//! - Different components ([`super::components`]): no surface path, ro is
+//!   infinite (t = 1 in the force law: attraction only).
+//! - Flat rest shape (every vertex within [`FLAT_TOLERANCE`] of one plane):
+//!   the straight rest segment, ro = |R_j - R_i|, direction R_j - R_i; exact
+//!   whenever the segment stays on the sheet (a lower bound across holes or notches).
+//! - Curved rest shape: a geodesic distance field per particle
+//!   ([`super::geodesic`]), computed from the particle's rest position and
+//!   recomputed only once the particle has walked more than [`REFRESH`] mean
+//!   edges from where it was computed (so a quiet frame computes none). ro(i, j)
+//!   is field_j interpolated at particle i (never below the chord |R_j - R_i|,
+//!   a lower bound of any surface path); the direction at i is minus the
+//!   gradient of field_j on i's rest triangle. Within [`NEAR`] mean edges, or in
+//!   one triangle, where the field's linear interpolation is coarse, the chord
+//!   is used instead.
+//!
+//! The fields and chords are computed on a copy of the rest shape in
+//! mean-edge units, snapped to a grid of 2^-32 units: the same bits whatever
+//! the mesh's scale, so the marching order (and the trajectories) do not
+//! change with it. Directions are rest-space vectors; [`super::tangent::TriMap`] carries them
+//! to the current shape (projecting onto the triangle's plane on the way).
 
-use super::tangent::{self, TriMap};
-use crate::error::{Error, Result};
+use super::components::triangle_components;
+use super::geodesic::Marcher;
+use super::particle::SurfacePoint;
+use super::tangent;
 use crate::mesh::Mesh;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Largest distance from the plane, relative to the rest bounding-box diagonal, that still counts as flat.
 pub const FLAT_TOLERANCE: f64 = 1e-6;
+/// A particle's geodesic field is recomputed once it is this far (mean edges, rest space) from the field's source.
+pub const REFRESH: f64 = 0.05;
+/// Below this ODL (mean edges) the chord replaces the geodesic field.
+pub const NEAR: f64 = 2.0;
+/// Reach of a geodesic field (mean edges).
+pub const CUT: f64 = 32.0;
+/// Grid of the normalised rest copy (mean-edge units).
+const SNAP: f64 = 1.0 / 4_294_967_296.0;
 
 /// The rest shape's mean plane: through the vertex centroid, normal to the
 /// area-weighted sum of triangle normals (each flipped to agree with the
@@ -58,29 +85,139 @@ pub fn flatness_deviation(mesh: &Mesh) -> f64 {
         / diag
 }
 
-/// Ok when the rest shape is flat within [`FLAT_TOLERANCE`], else [`Error::CurvedRestShape`].
-pub fn check_flat(mesh: &Mesh) -> Result<()> {
-    let deviation = flatness_deviation(mesh);
-    if deviation <= FLAT_TOLERANCE {
-        return Ok(());
+/// The original distance between two particles and the path's direction at the first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Path {
+    /// ro in mean-edge units; infinite between components.
+    pub length: f64,
+    /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest shape).
+    pub chord: f64,
+    /// Rest-space direction at the first particle towards the second (in its
+    /// triangle's plane up to the chord case); zero between components or when undefined.
+    pub direction: DVec3,
+}
+
+/// A geodesic field and the rest point it was computed from.
+#[derive(Debug, Clone)]
+struct Field {
+    source: DVec3,
+    dist: Vec<f64>,
+}
+
+/// The original distance of one mesh, with the per-particle geodesic fields of a curved rest shape.
+#[derive(Debug, Clone)]
+pub struct OriginalDistance {
+    mesh: Arc<Mesh>,
+    component: Arc<Vec<u32>>,
+    flat: bool,
+    /// Rest positions relative to the bounds' low corner, in mean-edge units, snapped to [`SNAP`].
+    rest: Vec<DVec3>,
+    fields: Vec<Option<Field>>,
+    marcher: Marcher,
+    /// Geodesic fields computed so far (a cost counter).
+    pub fields_computed: u64,
+    /// Vertices those fields reached, in all (a cost counter).
+    pub vertices_marched: u64,
+}
+
+impl OriginalDistance {
+    /// The original distance on `mesh` (components and flatness computed here).
+    pub fn new(mesh: Arc<Mesh>) -> OriginalDistance {
+        let component = Arc::new(triangle_components(&mesh));
+        let flat = flatness_deviation(&mesh) <= FLAT_TOLERANCE;
+        let unit = mesh.mean_edge_length();
+        let lo = mesh.rest().iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+        let rest = mesh
+            .rest()
+            .iter()
+            .map(|&p| ((p - lo) / (unit * SNAP)).round() * SNAP)
+            .collect();
+        OriginalDistance {
+            mesh,
+            component,
+            flat,
+            rest,
+            fields: Vec::new(),
+            marcher: Marcher::default(),
+            fields_computed: 0,
+            vertices_marched: 0,
+        }
     }
-    Err(Error::CurvedRestShape {
-        deviation,
-        what: "the particle sensor's original distance",
-    })
-}
 
-/// Original distance ro = |R_j - R_i| between two particles at rest positions `ri`, `rj`.
-#[inline]
-pub fn original_distance(ri: DVec3, rj: DVec3) -> f64 {
-    (rj - ri).length()
-}
+    /// True when the rest shape is flat (exact chord distances, no fields).
+    pub fn is_flat(&self) -> bool {
+        self.flat
+    }
 
-/// Unit tangent u_ij at particle i of the surface path towards j: the rest
-/// direction R_j - R_i mapped through the deformation `map` of i's triangle,
-/// normalised. Zero when undefined (coincident rest points or a degenerate triangle).
-#[inline]
-pub fn path_tangent(map: &TriMap, ri: DVec3, rj: DVec3) -> DVec3 {
-    map.to_current(rj - ri)
-        .map_or(DVec3::ZERO, |v| v.normalize_or_zero())
+    /// Component id of every triangle.
+    pub fn components(&self) -> &Arc<Vec<u32>> {
+        &self.component
+    }
+
+    /// Makes the field of every particle current (curved rest shapes only):
+    /// computes missing ones and those whose particle walked more than [`REFRESH`] from the source.
+    pub fn refresh(&mut self, points: &[SurfacePoint]) {
+        if self.flat {
+            return;
+        }
+        self.fields.resize(points.len(), None);
+        for (p, slot) in points.iter().zip(self.fields.iter_mut()) {
+            let r = p.position(&self.mesh, &self.rest);
+            if let Some(f) = slot {
+                if f.source.distance(r) <= REFRESH {
+                    continue;
+                }
+            }
+            let mut dist = slot.take().map(|f| f.dist).unwrap_or_default();
+            self.vertices_marched += self
+                .marcher
+                .distance_field(&self.mesh, &self.rest, p, CUT, &mut dist)
+                as u64;
+            self.fields_computed += 1;
+            *slot = Some(Field { source: r, dist });
+        }
+    }
+
+    /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
+    pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
+        let (pi, pj) = (&points[i], &points[j]);
+        if self.component[pi.tri as usize] != self.component[pj.tri as usize] {
+            return Path {
+                length: f64::INFINITY,
+                chord: f64::INFINITY,
+                direction: DVec3::ZERO,
+            };
+        }
+        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
+        let straight = Path {
+            length: chord.length(),
+            chord: chord.length(),
+            direction: chord,
+        };
+        let field = match self.fields.get(j) {
+            Some(Some(f)) if !self.flat && pi.tri != pj.tri => f,
+            _ => return straight,
+        };
+        let corners = self.mesh.triangles()[pi.tri as usize].map(|v| field.dist[v as usize]);
+        let along: f64 = corners.iter().zip(&pi.bary).map(|(d, b)| d * b).sum();
+        if along.is_infinite() {
+            return Path {
+                length: straight.length.max(CUT),
+                ..straight
+            };
+        }
+        if !(along >= NEAR && along > straight.length) {
+            return straight;
+        }
+        let (e1, e2) = tangent::edges(&self.mesh, &self.rest, pi.tri as usize);
+        let direction = tangent::dual(e1, e2)
+            .map(|(d1, d2)| -(d1 * (corners[1] - corners[0]) + d2 * (corners[2] - corners[0])))
+            .filter(|g| g.length_squared() > 0.0 && g.is_finite())
+            .unwrap_or(chord);
+        Path {
+            length: along,
+            direction,
+            ..straight
+        }
+    }
 }

@@ -27,8 +27,12 @@ use crate::error::{Error, Result};
 /// Parameters of the particle sensor and the sensor-gated detector.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorParams {
-    /// Number of particles k (the paper: "the number of convex parts"; 4 for its square cloth).
+    /// Least number of particles k (the paper's 4 for its square cloth). `sensor-gated`
+    /// uses the number of convex parts of the rest shape ([`super::parts`]) clamped
+    /// to [`count`, `max_count`]; [`super::Sensor::new`] uses `count` as given.
     pub count: usize,
+    /// Most particles `sensor-gated` places (each costs O(k) per update).
+    pub max_count: usize,
     /// Attraction constant a in fa(r) = a / r^2 (paper: 20).
     pub a: f64,
     /// Repulsion constant b in fr(r) = -b / r^2 (paper: 10).
@@ -58,6 +62,7 @@ impl Default for SensorParams {
     fn default() -> Self {
         SensorParams {
             count: 4,
+            max_count: 32,
             a: 20.0,
             b: 10.0,
             n_min: 1,
@@ -80,6 +85,12 @@ impl SensorParams {
             return bad(format!(
                 "sensor count must be at least 2 (a pair), got {}",
                 self.count
+            ));
+        }
+        if self.max_count < self.count {
+            return bad(format!(
+                "sensor max_count ({}) must be at least count ({})",
+                self.max_count, self.count
             ));
         }
         for (name, v) in [("a", self.a), ("b", self.b), ("step_gain", self.step_gain)] {
