@@ -26,11 +26,14 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     }
     let da = is_degenerate(a[0], a[1], a[2]);
     let db = is_degenerate(b[0], b[1], b[2]);
-    let any_edge = |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
+    let any_edge =
+        |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
     match (da, db) {
-        (true, true) => edges(a)
-            .iter()
-            .any(|ea| edges(b).iter().any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))),
+        (true, true) => edges(a).iter().any(|ea| {
+            edges(b)
+                .iter()
+                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
+        }),
         (true, false) => any_edge(a, b),
         (false, true) => any_edge(b, a),
         (false, false) if sb == [0; 3] => {
@@ -100,6 +103,9 @@ pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool
         } else {
             q2 - q1
         };
+        if d == DVec3::ZERO {
+            return p1 == q1; // two points (any projection could merge them)
+        }
         let d = d.abs();
         if d.x <= d.y && d.x <= d.z {
             0
