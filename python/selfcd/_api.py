@@ -8,6 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _arrays, _core
+from . import weld as _weld
 
 DEFAULT_METHOD = "bvh-cones-contour"
 
@@ -30,18 +31,52 @@ def non_conservative_methods() -> list[str]:
 class Mesh:
     """A triangle mesh: rest positions and faces, validated once, topology built once.
 
+    Zero-area faces (collinear or coincident corners) are valid: every query
+    counts one as the segment or point it is.
+
     Args:
         vertices: (n, 3) float array, the rest shape.
         faces: (m, 3) integer array of vertex indices.
+        weld: merge vertices at exactly equal positions first (see
+            `selfcd.weld.weld`), for triangle soups such as STL files. Faces
+            keep their order; `vertices` is then the welded array, and
+            positions given for the input's n vertices are accepted by
+            `Detector.detect`, `compare_methods` and `reference_pairs`.
+            Without it, a mesh with distinct vertices at one position gets an
+            `UnweldedMeshWarning`.
 
     Raises:
         TypeError: non-numeric vertices or non-integer faces.
         ValueError: wrong shapes, empty mesh, NaN/inf, index out of range,
-            a face repeating a vertex, duplicate faces, degenerate rest faces.
+            a face repeating a vertex index, duplicate faces.
     """
 
-    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
-        self._inner = _core.Mesh(_arrays.points(vertices, "vertices"), _arrays.faces(faces))
+    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, weld: bool = False) -> None:
+        if not isinstance(weld, (bool, np.bool_)):
+            raise TypeError(f"weld must be a bool, got {type(weld).__name__}")
+        v, f = _arrays.points(vertices, "vertices"), _arrays.faces(faces)
+        self._source: np.ndarray | None = None
+        if weld and len(v) and f.size and f.min() >= 0 and f.max() < len(v):  # bad indices: the engine names them
+            self._n_input = len(v)
+            v, f, self._source = _weld.weld(v, f)
+        elif not weld:
+            _weld.warn_if_unwelded(v, f)
+        self._inner = _core.Mesh(v, f)
+
+    def _positions(self, value: npt.ArrayLike, name: str = "positions") -> np.ndarray:
+        """(n, 3) positions of this mesh; for a welded mesh, positions of the input's vertices are mapped."""
+        arr = _arrays.points(value, name)
+        if self._source is not None and len(arr) == self._n_input and len(arr) != self.n_vertices:
+            arr = arr[self._source]
+        return _arrays.points(arr, name, self.n_vertices)
+
+    def _frames(self, value: npt.ArrayLike) -> np.ndarray:
+        """(f, n, 3) frames of this mesh, mapped like `_positions`."""
+        arr = np.asarray(value)
+        if (self._source is not None and arr.ndim == 3 and arr.shape[1] == self._n_input
+                and arr.shape[1] != self.n_vertices):
+            arr = arr[:, self._source]
+        return _arrays.frames(arr, self.n_vertices)
 
     @property
     def vertices(self) -> np.ndarray:
@@ -78,6 +113,7 @@ class Mesh:
         """A Mesh around an engine mesh that is already validated."""
         mesh = cls.__new__(cls)
         mesh._inner = inner
+        mesh._source = None
         return mesh
 
     def __repr__(self) -> str:
@@ -125,7 +161,7 @@ class Detector:
             (k, 2) int64 array of face indices, i < j, rows sorted.
         """
         pos = self.mesh.vertices if positions is None else positions
-        return self._inner.detect(_arrays.points(pos, "positions", self.mesh.n_vertices))
+        return self._inner.detect(self.mesh._positions(pos))
 
     def particles(self) -> np.ndarray:
         """Current sensor particle positions, (k, 3) float64; (0, 3) for methods without a sensor."""
@@ -151,10 +187,13 @@ class Detector:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> np.ndarray:
-    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted."""
-    mesh = Mesh(vertices, faces)
-    return _core.self_intersections(mesh._inner, _arrays.points(vertices))
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, weld: bool = False) -> np.ndarray:
+    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
+
+    `weld=True` merges vertices at equal positions first (see `Mesh`); face indices are unchanged.
+    """
+    mesh = Mesh(vertices, faces, weld=weld)
+    return _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
 
 
 def continuous_impacts(
@@ -204,14 +243,14 @@ def compare_methods(
         `Detector.last_stats`; "triggered" is int8 with -1 for methods without
         a sensor), "missed" and "spurious" (int64 per frame).
     """
-    arr = _arrays.frames(frames, mesh.n_vertices)
+    arr = mesh._frames(frames)
     names = None if methods is None else list(methods)
     return _core.compare_methods(mesh._inner, arr, names, float(thickness), progress)
 
 
 def reference_pairs(mesh: Mesh, frames: npt.ArrayLike) -> list[np.ndarray]:
     """Exact intersecting face pairs of each frame, as a list of (k, 2) int64 arrays."""
-    return _core.reference_pairs(mesh._inner, _arrays.frames(frames, mesh.n_vertices))
+    return _core.reference_pairs(mesh._inner, mesh._frames(frames))
 
 
 def paper_scenes() -> list[str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import _api, bench as bench_mod, demo as demo_mod, io as mesh_io
+from .weld import UnweldedMeshWarning
 
 
 class InputError(click.ClickException):
@@ -31,7 +33,18 @@ def _method_choice() -> click.Choice:
     return click.Choice(_api.methods())
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Group(click.Group):
+    """The command group; Ctrl-C ends any command with exit status 130 (128 + SIGINT), not click's 1."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("\nInterrupted.", err=True)
+            raise click.exceptions.Exit(130) from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="selfcd")
 def main() -> None:
     """selfcd: self-collision detection for deforming triangle meshes (cloth).
@@ -104,17 +117,26 @@ def _api_version() -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of text.")
 @click.option("--max-pairs", type=click.IntRange(0), default=10, show_default=True,
               help="Pairs listed per file in text output.")
-def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) -> None:
+@click.option("--weld/--no-weld", default=None,
+              help="Merge vertices at exactly equal positions first, so a triangle soup's neighbours are adjacent "
+                   "(default: on for .stl files, off otherwise).")
+def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int, weld: bool | None) -> None:
     """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, ... or .npz with V and F).
 
     Several files are one animation sharing faces (the first frame is the rest
     shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, is
     an animation too. Exit status: 0 no intersection, 1 some intersection,
-    2 bad input.
+    2 bad input, 130 interrupted.
     """
+    if weld is None:
+        weld = any(f.suffix.lower() == ".stl" for f in files)
     try:
         frames, faces, labels = mesh_io.load_sequence(list(files))
-        det = _api.Detector(_api.Mesh(frames[0], faces), method)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UnweldedMeshWarning)
+            det = _api.Detector(_api.Mesh(frames[0], faces, weld=weld), method)
+        for w in caught:
+            click.echo(f"Warning: {w.message}", err=True)
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
     records = []

@@ -3,6 +3,9 @@ and .npz archives holding arrays V (vertices, (n,3) or (frames,n,3)) and F (face
 
 from __future__ import annotations
 
+import os
+import stat
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -13,31 +16,84 @@ class MeshFileError(ValueError):
 
 
 def _load_npz(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    with np.load(path) as data:
-        for v_key, f_key in (("V", "F"), ("vertices", "faces")):
-            if v_key in data and f_key in data:
-                return np.asarray(data[v_key]), np.asarray(data[f_key])
-        raise MeshFileError(f"{path}: .npz needs arrays V and F (or vertices and faces), has {sorted(data.files)}")
+    try:
+        with np.load(path) as data:
+            for v_key, f_key in (("V", "F"), ("vertices", "faces")):
+                if v_key in data and f_key in data:
+                    return np.asarray(data[v_key]), np.asarray(data[f_key])
+            names = sorted(data.files)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise MeshFileError(f"{path}: not a valid .npz archive ({exc})") from None
+    raise MeshFileError(f"{path}: .npz needs arrays V and F (or vertices and faces), has {names}")
+
+
+_TEXT_FORMATS = {".obj": "OBJ", ".off": "OFF"}
+
+
+def _check_stl(path: Path, data: bytes) -> None:
+    """Raises unless `data` is a binary STL (sized as its header says) or UTF-8 text."""
+    if len(data) >= 84:
+        count = int.from_bytes(data[80:84], "little")
+        if len(data) == 84 + 50 * count:
+            return
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise MeshFileError(f"{path}: not an STL file: neither a binary STL ({len(data)} bytes, not 84 + 50 x "
+                            "the triangle count in its header) nor ASCII STL text") from None
+
+
+def _check_bytes(path: Path) -> None:
+    """Clear errors for files trimesh would misread: binary data in a text format, a broken STL."""
+    data = path.read_bytes()
+    suffix = path.suffix.lower()
+    if suffix == ".stl":
+        _check_stl(path, data)
+    elif suffix in _TEXT_FORMATS:
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise MeshFileError(f"{path}: not a valid {_TEXT_FORMATS[suffix]} file (binary data, not UTF-8 text "
+                                f"at byte {exc.start})") from None
 
 
 def _load_trimesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
     import trimesh  # imported lazily: it is only needed for mesh files
 
+    _check_bytes(path)
     kwargs = {"maintain_order": True} if path.suffix.lower() == ".obj" else {}
+    kind = path.suffix.lstrip(".").upper() or "mesh"
     try:
         mesh = trimesh.load(path, process=False, force="mesh", **kwargs)
     except Exception as exc:  # trimesh raises many types for unreadable files
-        raise MeshFileError(f"{path}: cannot read mesh: {exc}") from None
+        raise MeshFileError(f"{path}: not a readable {kind} file ({type(exc).__name__}: {exc})") from None
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
-        raise MeshFileError(f"{path}: no triangles found")
+        raise MeshFileError(f"{path}: no triangles found (not a valid {kind} file?)")
     return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+
+
+def _check_path(path: Path) -> None:
+    """Raises MeshFileError unless `path` is a regular file we can open."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise MeshFileError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise MeshFileError(f"{path}: cannot access: {exc.strerror}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise MeshFileError(f"{path}: is a directory, not a mesh file")
+    if not stat.S_ISREG(st.st_mode):
+        raise MeshFileError(f"{path}: not a regular file (a FIFO, device or socket); save the mesh to a file")
+    if not os.access(path, os.R_OK):
+        raise MeshFileError(f"{path}: permission denied")
+    if st.st_size == 0:
+        raise MeshFileError(f"{path}: the file is empty")
 
 
 def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(vertices (n,3), faces (m,3)) of one file; raises MeshFileError."""
     path = Path(path)
-    if not path.is_file():
-        raise MeshFileError(f"{path}: no such file")
+    _check_path(path)
     if path.suffix.lower() == ".npz":
         return _load_npz(path)
     return _load_trimesh(path)
