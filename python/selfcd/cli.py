@@ -104,13 +104,20 @@ def _api_version() -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of text.")
 @click.option("--max-pairs", type=click.IntRange(0), default=10, show_default=True,
               help="Pairs listed per file in text output.")
-def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) -> None:
-    """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, ... or .npz with V and F).
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also write REPORT/index.html (pairs per frame, 3D view, table) and REPORT/summary.json.")
+@click.option("--frame", type=click.IntRange(0), default=None,
+              help="Frame drawn in the report's 3D view (default: the one with the most pairs).")
+@click.option("--any", "stop_at_first", is_flag=True,
+              help="Stop at the first frame with an intersection (exit status 1).")
+def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int, report_dir: Path | None,
+           frame: int | None, stop_at_first: bool) -> None:
+    """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, STL, OFF, glTF, .npz, USD).
 
     Several files are one animation sharing faces (the first frame is the rest
-    shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, is
-    an animation too. Exit status: 0 no intersection, 1 some intersection,
-    2 bad input.
+    shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, and
+    a USD mesh with time-sampled points are animations too. Exit status: 0 no
+    intersection, 1 some intersection, 2 bad input.
     """
     try:
         frames, faces, labels = mesh_io.load_sequence(list(files))
@@ -118,26 +125,49 @@ def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) 
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
     records = []
-    for label, positions in zip(tqdm(labels, desc="detect", leave=False, delay=1.0, disable=None), frames):
+    for label, positions in zip(tqdm(labels, desc="detect", unit="frame", leave=False, delay=1.0, disable=None),
+                                frames):
         try:
             pairs = det.detect(positions)
         except (ValueError, TypeError) as exc:
             raise InputError(f"{label}: {exc}") from None
-        records.append({"file": label, "count": int(len(pairs)), "pairs": pairs.tolist(),
-                        "stats": det.last_stats})
+        records.append({"file": label, "count": int(len(pairs)), "pairs": pairs, "stats": det.last_stats})
+        if stop_at_first and len(pairs):
+            break
     any_hit = any(r["count"] for r in records)
+    if report_dir is not None:
+        _write_detect_report(records, frames, faces, method, report_dir, frame, mesh_io.up_axis(files[0]))
     if as_json:
+        for r in records:
+            r["pairs"] = r["pairs"].tolist()
         click.echo(json.dumps({"method": method, "intersecting": any_hit, "files": records}, indent=2))
     else:
         for r in records:
             _print_record(r, max_pairs)
+        if report_dir is not None:
+            click.echo(f"Report: {(report_dir / 'index.html').resolve()}")
     sys.exit(1 if any_hit else 0)
+
+
+def _write_detect_report(records: list[dict[str, Any]], frames: np.ndarray, faces: np.ndarray, method: str,
+                         out_dir: Path, frame: int | None, up: str) -> None:
+    """Writes the detect report for the frames checked (all, or up to the first hit with --any)."""
+    from .detect_report import DetectRun, write_detect_report  # plotly is imported only for a report
+
+    run = DetectRun([r["file"] for r in records], frames[: len(records)], faces, [r["pairs"] for r in records],
+                    [r["stats"]["total_time"] for r in records], method, up)
+    try:
+        write_detect_report(run, out_dir, frame, {"version": _api_version()})
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--frame") from None
+    except OSError as exc:
+        raise click.ClickException(f"cannot write the report to {out_dir}: {exc}") from None
 
 
 def _print_record(r: dict[str, Any], max_pairs: int) -> None:
     ms = r["stats"]["total_time"] * 1e3
     click.echo(f"{r['file']}: {r['count']} intersecting triangle pairs ({ms:.2f} ms)")
-    shown = r["pairs"][:max_pairs]
+    shown = r["pairs"][:max_pairs].tolist()
     if shown:
         more = f" ... and {r['count'] - len(shown)} more" if r["count"] > len(shown) else ""
         click.echo("  " + " ".join(f"({a},{b})" for a, b in shown) + more)
