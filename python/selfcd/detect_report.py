@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import html
 import json
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,32 +19,13 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.offline import get_plotlyjs
 
+from .check import DetectRun
 from .report import CLOTH, CONTACT, CSS, figure_div
 from .segments import segments
 
 #: Pairs listed in the page's table at most (summary.json has them all).
 MAX_TABLE_ROWS = 2000
 SEGMENT_COLOR = "#111111"
-
-
-@dataclass
-class DetectRun:
-    """What `selfcd detect` found: per frame its label, pairs (k, 2) and detection time."""
-
-    labels: list[str]
-    frames: np.ndarray
-    faces: np.ndarray
-    pairs: list[np.ndarray]
-    seconds: list[float]
-    method: str
-    up: str = "z"
-
-    def counts(self) -> np.ndarray:
-        return np.asarray([len(p) for p in self.pairs], dtype=np.int64)
-
-    def worst_frame(self) -> int:
-        """The frame with the most intersecting pairs (the first of equals)."""
-        return int(np.argmax(self.counts())) if self.pairs else 0
 
 
 def counts_figure(run: DetectRun, shown: int) -> go.Figure:
@@ -119,7 +99,7 @@ def summary(run: DetectRun, shown: int, meta: dict[str, Any]) -> dict[str, Any]:
         "pairs_max": int(counts.max(initial=0)),
         "shown_frame": shown,
         "frames": [{"index": k, "label": label, "pairs": int(c), "seconds": s}
-                   for k, (label, c, s) in enumerate(zip(run.labels, counts, run.seconds))],
+                   for k, (label, c, s) in enumerate(zip(run.labels, counts, run.seconds()))],
         "shown_pairs": run.pairs[shown].tolist() if run.pairs else [],
     }
 
