@@ -121,12 +121,13 @@ fn real_mesh(path: &str) -> selfcd::Result<()> {
             t.push(t0.elapsed().as_secs_f64() * 1e3);
         }
         println!(
-            "  {method}: frame {:.2} ms; node pairs {}, culls {}, contour tests {}, primitive tests {}, contacts {}",
+            "  {method}: frame {:.2} ms; node pairs {}, culls {}, contour tests {}, primitive tests {} ({} by the filter), contacts {}",
             median(t),
             last.node_pairs,
             last.self_culls + last.pair_culls,
             last.contour_tests,
             last.primitive_tests,
+            last.filter_decisions,
             last.contacts
         );
     }

@@ -311,7 +311,10 @@ fn proximity_matches_brute() {
                 )
             };
             let (kw, kg) = (keys(&want), keys(&got));
-            assert!(kw == naive_proximity(&mesh, &p, d), "brute proximity differs from the element-pair loop on {mname}/{sname}");
+            assert!(
+                kw == naive_proximity(&mesh, &p, d),
+                "brute proximity differs from the element-pair loop on {mname}/{sname}"
+            );
             assert!(
                 kw == kg,
                 "proximity differs on {mname}/{sname}: brute {} vt {} ee, bvh {} vt {} ee",

@@ -180,7 +180,10 @@ const ROUNDS: usize = 8;
 type Key = (f64, u32, u32);
 
 fn key_less(x: &Key, y: &Key) -> bool {
-    x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)).is_lt()
+    x.0.total_cmp(&y.0)
+        .then(x.1.cmp(&y.1))
+        .then(x.2.cmp(&y.2))
+        .is_lt()
 }
 
 /// The greedy matching of graph edges in order of merged box surface area
@@ -193,7 +196,13 @@ fn key_less(x: &Key, y: &Key) -> bool {
 fn dominant_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
     let mut cand: Vec<Key> = graph
         .par_iter()
-        .map(|&(a, b)| (boxes[a as usize].union(&boxes[b as usize]).surface_area(), a, b))
+        .map(|&(a, b)| {
+            (
+                boxes[a as usize].union(&boxes[b as usize]).surface_area(),
+                a,
+                b,
+            )
+        })
         .collect();
     const NONE: Key = (f64::INFINITY, u32::MAX, u32::MAX);
     let mut best = vec![NONE; boxes.len()];

@@ -189,8 +189,13 @@ impl<V: LeafVisitor> Ctx<'_, V> {
                 }
             }
             acc.counters.primitive_tests += 1;
-            self.visitor
-                .visit_counted(a.min(b), a.max(b), adjacent, &mut acc.items, &mut acc.counters);
+            self.visitor.visit_counted(
+                a.min(b),
+                a.max(b),
+                adjacent,
+                &mut acc.items,
+                &mut acc.counters,
+            );
             return None;
         }
         if self.pair_culled(a, b, acc) {

@@ -171,8 +171,14 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
             }
         }
     }
-    for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
-        for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
+    for &ea in topo.tri_edges[a as usize]
+        .iter()
+        .filter(|&&e| owns_edge(a, e))
+    {
+        for &eb in topo.tri_edges[b as usize]
+            .iter()
+            .filter(|&&e| owns_edge(b, e))
+        {
             f(ElementPair::EdgeEdge(ea, eb));
         }
     }

@@ -220,12 +220,21 @@ mod tests {
     #[test]
     fn scaling_is_exact_and_keeps_signs() {
         let p = [DVec3::new(0.5, 0.25, 1.0), DVec3::new(-3.0, 1e-300, 7.0)];
-        for s in [1.0, 2f64.powi(1020), f64::from_bits(1), 2f64.powi(-900), 2f64.powi(1000)] {
+        for s in [
+            1.0,
+            2f64.powi(1020),
+            f64::from_bits(1),
+            2f64.powi(-900),
+            2f64.powi(1000),
+        ] {
             let mut q = p.map(|x| x * s);
             scale_exactly(&mut q);
             let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs().max_element()));
             if (p[1] * s).z != 0.0 {
-                assert!((2f64.powi(300)..2f64.powi(301)).contains(&m), "{s:e}: {m:e}");
+                assert!(
+                    (2f64.powi(300)..2f64.powi(301)).contains(&m),
+                    "{s:e}: {m:e}"
+                );
             }
         }
         // A unit triangle at 2^1000 and at 2^-1000: still not degenerate.
@@ -239,7 +248,11 @@ mod tests {
     #[test]
     fn filter_decides_only_certain_sides() {
         let t = [DVec3::ZERO, DVec3::X, DVec3::Y];
-        let above = [DVec3::new(0.1, 0.1, 1.0), DVec3::new(2.0, 0.0, 0.5), DVec3::new(0.0, 0.0, 1e-3)];
+        let above = [
+            DVec3::new(0.1, 0.1, 1.0),
+            DVec3::new(2.0, 0.0, 0.5),
+            DVec3::new(0.0, 0.0, 1e-3),
+        ];
         assert!(certainly_one_side(&t, &above));
         let below = above.map(|q| q * DVec3::new(1.0, 1.0, -1.0));
         assert!(certainly_one_side(&t, &below));

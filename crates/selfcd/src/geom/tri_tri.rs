@@ -41,7 +41,10 @@ pub fn triangles_intersect_filtered(a: &[DVec3; 3], b: &[DVec3; 3]) -> Decision 
     }
     let mut p = [a[0], a[1], a[2], b[0], b[1], b[2]];
     scale_exactly(&mut p);
-    Decision::Exact(triangles_intersect(&[p[0], p[1], p[2]], &[p[3], p[4], p[5]]))
+    Decision::Exact(triangles_intersect(
+        &[p[0], p[1], p[2]],
+        &[p[3], p[4], p[5]],
+    ))
 }
 
 /// True when closed triangles `a` and `b` share at least one point (exact
@@ -60,11 +63,14 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     }
     let da = is_degenerate(a[0], a[1], a[2]);
     let db = is_degenerate(b[0], b[1], b[2]);
-    let any_edge = |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
+    let any_edge =
+        |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
     match (da, db) {
-        (true, true) => edges(a)
-            .iter()
-            .any(|ea| edges(b).iter().any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))),
+        (true, true) => edges(a).iter().any(|ea| {
+            edges(b)
+                .iter()
+                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
+        }),
         (true, false) => any_edge(a, b),
         (false, true) => any_edge(b, a),
         (false, false) if sb == [0; 3] => {
