@@ -201,7 +201,8 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
         let cross = a[0] * b[1] - a[1] * b[0];
         let scale = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
         // Strictly left, with a relative margin far above the rounding of the projection.
-        if !(cross > 1e-9 * scale) {
+        // (NaN or infinite values never pass.)
+        if cross.partial_cmp(&(1e-9 * scale)) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         crossings += (a[1] <= 0.0 && b[1] > 0.0) as u32;
@@ -310,7 +311,7 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
         .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
         .sum();
     let ext2 = extent2(segs);
-    if !(area2 > 1e-9 * ext2) {
+    if area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater) {
         return false;
     }
     all_pairs_clear(segs, segs, 1e-12 * ext2)

@@ -39,6 +39,20 @@ pub trait LeafVisitor: Sync {
     const SKIP_ADJACENT: bool;
     /// Tests triangles `a` and `b` (a != b) and appends what it finds to `out`.
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Self::Item>);
+
+    /// [`visit`](Self::visit), also counting what the test did in `counters`
+    /// (e.g. filter decisions); the default counts nothing.
+    #[inline]
+    fn visit_counted(
+        &self,
+        a: u32,
+        b: u32,
+        adjacent: bool,
+        out: &mut Vec<Self::Item>,
+        _counters: &mut Counters,
+    ) {
+        self.visit(a, b, adjacent, out)
+    }
 }
 
 /// Runs the self-traversal of `bvh` (refitted to `positions`) and returns what
@@ -162,9 +176,7 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         let bvh = self.bvh;
         acc.counters.node_pairs += 1;
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
-        let g = self.opts.gap;
-        let apart = (ba.min - bb.max).max_element() > g || (bb.min - ba.max).max_element() > g;
-        if apart {
+        if !ba.within(bb, self.opts.gap) {
             return None;
         }
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
@@ -177,8 +189,13 @@ impl<V: LeafVisitor> Ctx<'_, V> {
                 }
             }
             acc.counters.primitive_tests += 1;
-            self.visitor
-                .visit(a.min(b), a.max(b), adjacent, &mut acc.items);
+            self.visitor.visit_counted(
+                a.min(b),
+                a.max(b),
+                adjacent,
+                &mut acc.items,
+                &mut acc.counters,
+            );
             return None;
         }
         if self.pair_culled(a, b, acc) {
