@@ -140,6 +140,9 @@ pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool
         } else {
             q2 - q1
         };
+        if d == DVec3::ZERO {
+            return p1 == q1; // two points (any projection could merge them)
+        }
         let d = d.abs();
         if d.x <= d.y && d.x <= d.z {
             0
