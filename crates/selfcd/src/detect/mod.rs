@@ -16,6 +16,7 @@ pub mod compare;
 pub mod continuous;
 pub mod hierarchy;
 pub mod narrow;
+pub mod obstacle;
 pub mod sensor_gated;
 
 use crate::error::{Error, Result};
