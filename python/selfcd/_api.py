@@ -187,13 +187,38 @@ class Detector:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, weld: bool = False) -> np.ndarray:
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
+                       weld: bool = False) -> np.ndarray:
     """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
 
-    `weld=True` merges vertices at equal positions first (see `Mesh`); face indices are unchanged.
+    Args:
+        vertices: (n, 3) positions.
+        faces: (m, 3) vertex indices.
+        subset: optional face indices; only pairs of two faces in the subset are
+            reported, by their ids in `faces`. Adjacency is still by shared
+            vertex ids, so the answer is the full query's pairs among the subset.
+        weld: merge vertices at exactly equal positions first (see `Mesh`);
+            face indices are unchanged.
     """
-    mesh = Mesh(vertices, faces, weld=weld)
-    return _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    if subset is None:
+        mesh = Mesh(vertices, faces, weld=weld)
+        return _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    all_faces = _arrays.faces(faces)
+    ids = _arrays.face_ids(subset, len(all_faces), "subset")
+    if len(ids) < 2:
+        Mesh(vertices, all_faces, weld=weld)  # the same validation as the full query
+        return np.zeros((0, 2), dtype=np.int64)
+    return ids[self_intersections(vertices, all_faces[ids], weld=weld)]
+
+
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
+                          weld: bool = False) -> bool:
+    """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
+
+    Same answer as `len(self_intersections(...)) > 0`; the query runs in full
+    (the traversal has no early exit yet).
+    """
+    return len(self_intersections(vertices, faces, subset, weld)) > 0
 
 
 def continuous_impacts(

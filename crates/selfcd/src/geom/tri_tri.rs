@@ -8,11 +8,48 @@
 //! rounding. Degenerate (collapsed) triangles are handled as their edges.
 
 use super::predicates::{
-    dominant_axis, is_degenerate, orient3d, point_in_triangle_2d, project, segments_intersect_2d,
+    certainly_one_side, dominant_axis, is_degenerate, orient3d, point_in_triangle_2d, project,
+    scale_exactly, segments_intersect_2d,
 };
 use glam::DVec3;
 
-/// True when closed triangles `a` and `b` share at least one point.
+/// How a triangle pair was decided.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decision {
+    /// The floating-point filter proved the triangles apart.
+    FilterApart,
+    /// The exact test ran; its answer.
+    Exact(bool),
+}
+
+impl Decision {
+    /// True when the triangles share a point.
+    #[inline]
+    pub fn intersect(self) -> bool {
+        self == Decision::Exact(true)
+    }
+}
+
+/// The exact test behind a floating-point filter, for any finite scale:
+/// first the error-bounded plane-side test ([`certainly_one_side`]) both ways;
+/// when it cannot decide, both triangles are scaled by one power of two
+/// ([`scale_exactly`]) and given [`triangles_intersect`].
+#[inline]
+pub fn triangles_intersect_filtered(a: &[DVec3; 3], b: &[DVec3; 3]) -> Decision {
+    if certainly_one_side(a, b) || certainly_one_side(b, a) {
+        return Decision::FilterApart;
+    }
+    let mut p = [a[0], a[1], a[2], b[0], b[1], b[2]];
+    scale_exactly(&mut p);
+    Decision::Exact(triangles_intersect(
+        &[p[0], p[1], p[2]],
+        &[p[3], p[4], p[5]],
+    ))
+}
+
+/// True when closed triangles `a` and `b` share at least one point (exact
+/// while no orientation product overflows or underflows: see
+/// [`triangles_intersect_filtered`] for inputs of any scale).
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     // Plane-side rejection first: it settles most pairs, and it is valid for
     // degenerate triangles too (their orientations are all zero, never one-sided).
