@@ -142,7 +142,8 @@ class Detector:
         if not isinstance(method, str):
             raise TypeError(f"method must be a string, got {type(method).__name__}")
         self.mesh = mesh
-        self._inner = _core.Detector(mesh._inner, method, float(thickness), method_options or None)
+        self._inner = _core.Detector(mesh._inner, method, _arrays.number(thickness, "thickness"),
+                                     method_options or None)
 
     @property
     def method(self) -> str:
@@ -243,7 +244,8 @@ def continuous_impacts(
     """
     n = mesh.n_vertices
     return _core.continuous_impacts(
-        mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n), float(separation)
+        mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n),
+        _arrays.number(separation, "separation")
     )
 
 
@@ -270,7 +272,7 @@ def compare_methods(
     """
     arr = mesh._frames(frames)
     names = None if methods is None else list(methods)
-    return _core.compare_methods(mesh._inner, arr, names, float(thickness), progress)
+    return _core.compare_methods(mesh._inner, arr, names, _arrays.number(thickness, "thickness"), progress)
 
 
 def reference_pairs(mesh: Mesh, frames: npt.ArrayLike) -> list[np.ndarray]:
@@ -300,12 +302,11 @@ class Simulation:
         for name, value in (("scene", scene), ("method", method)):
             if not isinstance(value, str):
                 raise TypeError(f"{name} must be a string, got {type(value).__name__}")
-        if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-            raise TypeError(f"resolution must be an integer, got {type(resolution).__name__}")
+        resolution = _arrays.integer(resolution, "resolution")
         if resolution < 2:
             raise ValueError(f"resolution must be at least 2 vertices per side, got {resolution}")
-        self._inner = _core.Simulation(scene, int(resolution), method, None if dt is None else float(dt),
-                                       bool(self_collision))
+        self._inner = _core.Simulation(scene, resolution, method, None if dt is None else _arrays.number(dt, "dt"),
+                                       _arrays.flag(self_collision, "self_collision"))
         self.mesh = Mesh._wrap(self._inner.mesh)
 
     def step(self) -> dict[str, Any]:
@@ -320,9 +321,10 @@ class Simulation:
             frames (f, n, 3) starting with the current state, their times (f,),
             and per-step stats as arrays ("detection": per-step FrameStats arrays).
         """
-        if steps < 0:
-            raise ValueError(f"steps must be >= 0, got {steps}")
-        return self._inner.run(int(steps), int(every), progress)
+        steps, every = _arrays.integer(steps, "steps"), _arrays.integer(every, "every")
+        if steps < 0 or every < 1:
+            raise ValueError(f"steps must be >= 0 and every >= 1, got steps={steps}, every={every}")
+        return self._inner.run(steps, every, progress)
 
     @property
     def positions(self) -> np.ndarray:

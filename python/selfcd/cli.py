@@ -320,8 +320,10 @@ def bench(sizes: str, states: str | None, methods: tuple[str, ...], repeats: int
     """Scaling benchmark: mesh sizes x states x methods; build, refit and traversal times."""
     try:
         size_list = [int(s) for s in sizes.split(",") if s.strip()]
+        if any(s < 0 for s in size_list):
+            raise ValueError
     except ValueError:
-        raise click.BadParameter(f"not a list of integers: {sizes}", param_hint="--sizes") from None
+        raise click.BadParameter(f"not a list of non-negative integers: {sizes}", param_hint="--sizes") from None
     known = bench_mod.states()
     state_list = known if states is None else [s.strip() for s in states.split(",") if s.strip()]
     bad = [s for s in state_list if s not in known]
@@ -329,8 +331,11 @@ def bench(sizes: str, states: str | None, methods: tuple[str, ...], repeats: int
         raise click.BadParameter(f"unknown state {bad[0]!r}; expected {', '.join(known)}", param_hint="--states")
     method_list = list(methods) or _api.methods()
     with _bar(len(size_list) * len(state_list) * len(method_list), "bench") as bar:
-        rows = bench_mod.run(size_list, state_list, method_list, repeats, brute_limit,
-                             progress=lambda done: bar.update(done - bar.n))
+        try:
+            rows = bench_mod.run(size_list, state_list, method_list, repeats, brute_limit,
+                                 progress=lambda done: bar.update(done - bar.n))
+        except (ValueError, MemoryError) as exc:  # a size out of range, or too large to allocate
+            raise InputError(f"--sizes: {exc}") from None
     if json_path is not None and str(json_path) == "-":
         click.echo(json.dumps(rows, indent=2))
         return

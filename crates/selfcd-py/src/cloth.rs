@@ -165,8 +165,7 @@ impl PySimulation {
                     frames.push(sim.positions().to_vec());
                     times.push(sim.time());
                 }
-                crate::compare::report(&progress, k, &mut cb_err);
-                if cb_err.is_some() {
+                if crate::compare::report(&progress, k, &mut cb_err).is_err() {
                     break;
                 }
             }

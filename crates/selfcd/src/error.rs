@@ -32,6 +32,12 @@ pub enum Error {
     /// A parameter is outside its valid range.
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
+    /// Memory for a buffer sized from the input could not be reserved.
+    #[error("out of memory: {what} needs {bytes} bytes")]
+    OutOfMemory { what: &'static str, bytes: u128 },
+    /// A long call was stopped by its caller (Ctrl-C in the Python bindings).
+    #[error("interrupted")]
+    Interrupted,
     /// The mesh's rest shape is not flat, and the method needs a flat one.
     #[error("rest shape is not flat (max distance {deviation:.3e} from its best plane, relative); {what} needs a flat rest shape")]
     CurvedRestShape { deviation: f64, what: &'static str },
@@ -55,4 +61,16 @@ pub fn parse_name<T: Copy>(
             names.join(", ")
         ))
     })
+}
+
+/// An empty vector with room for `n` items, or [`Error::OutOfMemory`] naming
+/// `what` and the bytes asked for: for buffers sized from user input, where an
+/// allocation failure must be an error, not an abort.
+pub fn try_vec<T>(n: usize, what: &'static str) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| Error::OutOfMemory {
+        what,
+        bytes: n as u128 * std::mem::size_of::<T>() as u128,
+    })?;
+    Ok(v)
 }

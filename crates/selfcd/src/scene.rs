@@ -3,6 +3,7 @@
 //! folded, Z-folded, crumpled, twisted, rolled, noisy), all as pure functions
 //! of the rest positions so they are reproducible.
 
+use crate::error::{try_vec, Error, Result};
 use glam::{DQuat, DVec3};
 use std::f64::consts::PI;
 
@@ -13,9 +14,35 @@ pub fn grid(n: usize, size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     grid_rect(n, n, size, size)
 }
 
+/// [`grid`] for a side taken from user input: an error, not an abort or a
+/// wrapped index, when the side is below 2, the vertices overflow 32-bit
+/// indices, or the arrays cannot be allocated ([`Error::OutOfMemory`]).
+pub fn try_grid(n: usize, size: f64) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>)> {
+    let vertices = n
+        .checked_mul(n)
+        .filter(|&v| n >= 2 && v <= 1usize << 32)
+        .ok_or_else(|| {
+            Error::InvalidParameter(format!(
+                "a grid of {n} x {n} vertices is not possible: the side must be at least 2 and the \
+                 vertices must fit 32-bit indices"
+            ))
+        })?;
+    let mut v = try_vec(vertices, "grid vertices")?;
+    let mut f = try_vec(2 * (n - 1) * (n - 1), "grid triangles")?;
+    fill_grid(n, n, size, size, &mut v, &mut f);
+    Ok((v, f))
+}
+
 /// A rectangular grid cloth: `nx x ny` vertices over `[0, sx] x [0, sy]`.
 pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut v = Vec::with_capacity(nx * ny);
+    let (mut v, mut f) = (Vec::new(), Vec::new());
+    fill_grid(nx, ny, sx, sy, &mut v, &mut f);
+    (v, f)
+}
+
+/// Appends the vertices and triangles of [`grid_rect`] to `v` and `f`.
+fn fill_grid(nx: usize, ny: usize, sx: f64, sy: f64, v: &mut Vec<[f64; 3]>, f: &mut Vec<[u32; 3]>) {
+    v.reserve(nx * ny);
     for j in 0..ny {
         for i in 0..nx {
             v.push([
@@ -26,7 +53,7 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
         }
     }
     let id = |i: usize, j: usize| (j * nx + i) as u32;
-    let mut f = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
+    f.reserve(2 * (nx - 1) * (ny - 1));
     for j in 0..ny - 1 {
         for i in 0..nx - 1 {
             let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
@@ -39,7 +66,6 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
             }
         }
     }
-    (v, f)
 }
 
 /// A closed UV sphere of radius `r` about the origin, poles on the z axis:
@@ -122,7 +148,7 @@ pub enum Deformation {
     /// Fold the half x > mid over a cylinder of radius `radius * width`,
     /// through `angle` radians (PI folds it flat on top; more pushes it through).
     Fold { angle: f64, radius: f64 },
-    /// Accordion fold into `layers` flat layers stacked `gap * width` apart.
+    /// Accordion fold into `layers` (>= 1) flat layers stacked `gap * width` apart.
     ZFold { layers: usize, gap: f64 },
     /// A smooth random displacement of size `amplitude * width` and wavelength
     /// `wavelength * width`; large amplitudes fold the sheet through itself.
@@ -197,7 +223,51 @@ fn frame(rest: &[DVec3]) -> (DVec3, DVec3, f64) {
 }
 
 impl Deformation {
-    /// Positions of `rest` (a flat mesh in the xy plane) in this shape.
+    /// Checks the parameters: every number finite; `layers` >= 1; radius,
+    /// gaps >= 0; wavelength and roll turns > 0. [`Deformation::apply`] with
+    /// other values does not panic, but its positions mean nothing.
+    pub fn validate(&self) -> Result<()> {
+        use Deformation::*;
+        let (named, positive): (Vec<(&str, f64)>, &[&str]) = match *self {
+            Flat => (vec![], &[]),
+            Fold { angle, radius } => (vec![("angle", angle), ("radius", radius)], &[]),
+            ZFold { layers, gap } => {
+                if layers == 0 {
+                    return Err(Error::InvalidParameter("zfold layers must be at least 1".into()));
+                }
+                (vec![("gap", gap)], &[])
+            }
+            Crumple { amplitude, wavelength, .. } => {
+                (vec![("amplitude", amplitude), ("wavelength", wavelength)], &["wavelength"])
+            }
+            Twist { turns } => (vec![("turns", turns)], &[]),
+            Roll { turns, gap } => (vec![("turns", turns), ("gap", gap)], &["turns"]),
+            Noise { amplitude, .. } => (vec![("amplitude", amplitude)], &[]),
+        };
+        for (name, v) in named {
+            let must_be_positive = positive.contains(&name);
+            let non_negative = matches!(name, "radius" | "gap");
+            let ok = v.is_finite()
+                && (!must_be_positive || v > 0.0)
+                && (!non_negative || v >= 0.0);
+            if !ok {
+                let range = if must_be_positive {
+                    "finite and > 0"
+                } else if non_negative {
+                    "finite and >= 0"
+                } else {
+                    "finite"
+                };
+                return Err(Error::InvalidParameter(format!(
+                    "shape parameter {name} must be {range}, got {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Positions of `rest` (a flat mesh in the xy plane) in this shape
+    /// (parameters as [`Deformation::validate`] accepts).
     pub fn apply(&self, rest: &[DVec3]) -> Vec<DVec3> {
         let (lo, hi, w) = frame(rest);
         match *self {
@@ -208,7 +278,8 @@ impl Deformation {
                 rest.iter().map(|p| fold_point(*p, mid, r, angle)).collect()
             }
             Deformation::ZFold { layers, gap } => {
-                let panel = w / layers.max(1) as f64;
+                let layers = layers.max(1); // 0 is refused by validate; never underflow
+                let panel = w / layers as f64;
                 rest.iter()
                     .map(|p| {
                         let u = (p.x - lo.x) / panel;
