@@ -120,3 +120,19 @@ M = selfcd.Mesh(V, F)
 def test_parameters_are_checked(call, error, words) -> None:
     with pytest.raises(error, match=words):
         call()
+
+
+@pytest.mark.parametrize("method", selfcd.methods())
+def test_proximity_output_is_guarded(method: str) -> None:
+    # A thickness larger than the mesh: every vertex is near every face.
+    det = selfcd.Detector(M, method, thickness=10.0, max_contacts=100)
+    with pytest.raises(ValueError, match="stopped at 100 contacts: thickness 10 is too large"):
+        det.detect()
+    everything = selfcd.Detector(M, method, thickness=10.0)
+    everything.detect()
+    n = len(everything.last_proximity["vertex_triangle"]) + len(everything.last_proximity["edge_edge"])
+    assert n > 100
+    exact = selfcd.Detector(M, method, thickness=10.0, max_contacts=n)
+    exact.detect()  # the limit itself is allowed
+    with pytest.raises(TypeError, match="max_contacts must be an integer"):
+        selfcd.Detector(M, method, max_contacts=1.5)

@@ -129,6 +129,10 @@ class Detector:
             "bvh-cones", "bvh-cones-contour" (default, conservative).
         thickness: when > 0, vertex-triangle and edge-edge pairs closer than
             this are reported in `last_proximity` too.
+        max_contacts: the most proximity contacts one `detect` may collect
+            (default 20 million, about 1.3 GB); beyond it `detect` raises
+            ValueError rather than exhausting memory (a thickness larger than
+            the mesh makes every vertex near every face).
         **method_options: options of the method; "sensor-gated" takes the
             particle sensor's parameters (`selfcd.sensor_options()`: count, a, b,
             n_min, n_max, epsilon, step_gain, max_step, tolerance, inner,
@@ -136,14 +140,17 @@ class Detector:
             raises TypeError.
     """
 
-    def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0, **method_options: Any) -> None:
+    def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0,
+                 max_contacts: int | None = None, **method_options: Any) -> None:
         if not isinstance(mesh, Mesh):
             raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
         if not isinstance(method, str):
             raise TypeError(f"method must be a string, got {type(method).__name__}")
         self.mesh = mesh
+        if max_contacts is not None and _arrays.integer(max_contacts, "max_contacts") < 0:
+            raise ValueError(f"max_contacts must be >= 0, got {max_contacts}")
         self._inner = _core.Detector(mesh._inner, method, _arrays.number(thickness, "thickness"),
-                                     method_options or None)
+                                     method_options or None, max_contacts)
 
     @property
     def method(self) -> str:

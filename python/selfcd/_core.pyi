@@ -43,8 +43,9 @@ class Detector:
     """One detection method on one mesh, keeping its state between calls."""
 
     def __init__(self, mesh: Mesh, method: str, thickness: float = 0.0,
-                 options: dict[str, Any] | None = None) -> None:
-        """Builds the detector; `options` are the method's keyword options."""
+                 options: dict[str, Any] | None = None, max_contacts: int | None = None) -> None:
+        """Builds the detector; `options` are the method's keyword options; `max_contacts`
+        limits the proximity contacts of one call (ValueError beyond it)."""
     def detect(self, positions: np.ndarray) -> np.ndarray:
         """Intersecting face pairs at (n,3) float64 `positions`: (k,2) int64, sorted, i<j."""
     def particles(self) -> np.ndarray:

@@ -35,6 +35,9 @@ pub enum Error {
     /// Memory for a buffer sized from the input could not be reserved.
     #[error("out of memory: {what} needs {bytes} bytes")]
     OutOfMemory { what: &'static str, bytes: u128 },
+    /// A proximity query found more contacts than its limit (the output guard).
+    #[error("proximity query stopped at {limit} contacts: thickness {thickness} is too large for this mesh (raise max_contacts to allow more)")]
+    TooManyContacts { limit: usize, thickness: f64 },
     /// A long call was stopped by its caller (Ctrl-C in the Python bindings).
     #[error("interrupted")]
     Interrupted,

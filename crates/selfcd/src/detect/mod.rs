@@ -144,6 +144,10 @@ pub trait Detector: Send {
     fn mesh(&self) -> &Arc<Mesh>;
     /// Finds self-intersections (and proximity contacts) at `positions`.
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection>;
+    /// Sets the most proximity contacts one call may collect (default
+    /// [`narrow::DEFAULT_MAX_CONTACTS`]); past it `detect` fails with
+    /// [`Error::TooManyContacts`] instead of exhausting memory.
+    fn set_max_contacts(&mut self, max: usize);
     /// Current particle positions, for drawing (empty for methods without a sensor).
     fn particles(&self) -> Vec<DVec3> {
         Vec::new()

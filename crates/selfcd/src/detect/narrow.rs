@@ -6,11 +6,13 @@
 //!   `d`, skipping elements that share a vertex.
 
 use crate::bvh::traverse::LeafVisitor;
+use crate::error::{Error, Result};
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
 use crate::stats::Counters;
 use glam::DVec3;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Exact intersection test of two triangles of one mesh.
 pub struct Intersect<'a> {
@@ -83,6 +85,11 @@ pub enum Near {
     Ee(EdgeEdge),
 }
 
+/// Default limit on the proximity contacts of one query (about 64 bytes each):
+/// a thickness larger than the mesh makes the output grow as vertices x
+/// triangles, and the query must fail clearly before memory runs out.
+pub const DEFAULT_MAX_CONTACTS: usize = 20_000_000;
+
 /// Proximity test with thickness `d` between two triangles of one mesh.
 pub struct Proximity<'a> {
     /// The mesh (triangles, edges).
@@ -91,9 +98,26 @@ pub struct Proximity<'a> {
     pub positions: &'a [DVec3],
     /// Thickness: report element pairs strictly closer than this.
     pub thickness: f64,
+    /// Most contacts collected; past it, visits stop and [`Proximity::check_output`] fails.
+    pub max_contacts: usize,
+    /// Contacts collected so far, over all threads.
+    pub found: AtomicUsize,
 }
 
-impl Proximity<'_> {
+impl<'a> Proximity<'a> {
+    /// The test with thickness `thickness`, collecting at most `max_contacts` contacts.
+    pub fn new(mesh: &'a Mesh, positions: &'a [DVec3], thickness: f64, max_contacts: usize) -> Self {
+        Proximity { mesh, positions, thickness, max_contacts, found: AtomicUsize::new(0) }
+    }
+
+    /// Err([`Error::TooManyContacts`]) when the query reached its limit (its output is then incomplete).
+    pub fn check_output(&self) -> Result<()> {
+        if self.found.load(Ordering::Relaxed) > self.max_contacts {
+            return Err(Error::TooManyContacts { limit: self.max_contacts, thickness: self.thickness });
+        }
+        Ok(())
+    }
+
     fn vertex_triangle(&self, v: u32, t: u32, out: &mut Vec<Near>) {
         let tri = self.mesh.triangles()[t as usize];
         if tri.contains(&v) {
@@ -136,10 +160,17 @@ impl LeafVisitor for Proximity<'_> {
     const SKIP_ADJACENT: bool = false;
 
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
+        if self.found.load(Ordering::Relaxed) > self.max_contacts {
+            return; // the output guard: the query fails in check_output
+        }
+        let before = out.len();
         for_each_owned_pair(self.mesh, a, b, |pair| match pair {
             ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
             ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
         });
+        if out.len() > before {
+            self.found.fetch_add(out.len() - before, Ordering::Relaxed);
+        }
     }
 }
 

@@ -82,13 +82,17 @@ impl Detector for SensorGatedDetector {
             if !self.refit_every_frame {
                 refit = timed_refit(&mut self.bvh);
             }
-            self.bvh.traverse(positions)
+            self.bvh.traverse(positions)?
         } else {
             Detection::default()
         };
         det.stats.refit_time = refit;
         write_sensor(&mut det.stats, &relax, sensor_time);
         Ok(det)
+    }
+
+    fn set_max_contacts(&mut self, max: usize) {
+        self.bvh.set_max_contacts(max);
     }
 
     fn particles(&self) -> Vec<DVec3> {
