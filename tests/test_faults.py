@@ -107,7 +107,7 @@ M = selfcd.Mesh(V, F)
     (lambda: selfcd.Simulation("corner", resolution=5.0), TypeError, "resolution must be an integer"),
     (lambda: selfcd.Simulation("corner", dt="0.01"), TypeError, "dt must be a number"),
     (lambda: selfcd.Simulation("corner", resolution=3).run(2.5), TypeError, "steps must be an integer"),
-    (lambda: selfcd.Simulation("corner", resolution=3).run(2, every=0), ValueError, "every >= 1"),
+    (lambda: selfcd.Simulation("corner", resolution=3).run(2, every=0), ValueError, "every must be at least 1"),
     (lambda: selfcd.scenes.deform(V, "fold", angle=float("nan")), ValueError, "angle must be finite"),
     (lambda: selfcd.scenes.deform(V, "twist", turns=float("inf")), ValueError, "turns must be finite"),
     (lambda: selfcd.scenes.deform(V, "crumple", wavelength=0.0), ValueError, "wavelength must be finite and > 0"),

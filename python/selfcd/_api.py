@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -109,7 +110,7 @@ class Mesh:
         return self._inner.mean_edge_length
 
     @classmethod
-    def _wrap(cls, inner: _core.Mesh) -> "Mesh":
+    def _wrap(cls, inner: _core.Mesh) -> Mesh:
         """A Mesh around an engine mesh that is already validated."""
         mesh = cls.__new__(cls)
         mesh._inner = inner
@@ -329,8 +330,10 @@ class Simulation:
             and per-step stats as arrays ("detection": per-step FrameStats arrays).
         """
         steps, every = _arrays.integer(steps, "steps"), _arrays.integer(every, "every")
-        if steps < 0 or every < 1:
-            raise ValueError(f"steps must be >= 0 and every >= 1, got steps={steps}, every={every}")
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0, got {steps}")
+        if every < 1:
+            raise ValueError(f"every must be at least 1, got {every}")
         return self._inner.run(steps, every, progress)
 
     @property

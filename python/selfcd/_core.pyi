@@ -1,6 +1,7 @@
 """Type stubs for the compiled extension `selfcd._core` (crates/selfcd-py)."""
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any, final
 
 import numpy as np
 
@@ -15,10 +16,11 @@ def non_conservative_methods() -> list[str]:
 def sensor_options() -> list[str]:
     """Names of the keyword options the `sensor-gated` method takes."""
 
+@final
 class Mesh:
     """A validated triangle mesh: rest positions, faces, topology."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+    def __new__(cls, vertices: np.ndarray, faces: np.ndarray) -> Mesh:
         """Validates an (n,3) float64 vertex array and an (m,3) int64 face array."""
     @property
     def vertices(self) -> np.ndarray:
@@ -39,11 +41,12 @@ class Mesh:
     def mean_edge_length(self) -> float:
         """Mean rest edge length."""
 
+@final
 class Detector:
     """One detection method on one mesh, keeping its state between calls."""
 
-    def __init__(self, mesh: Mesh, method: str, thickness: float = 0.0,
-                 options: dict[str, Any] | None = None, max_contacts: int | None = None) -> None:
+    def __new__(cls, mesh: Mesh, method: str, thickness: float = 0.0,
+                 options: dict[str, Any] | None = None, max_contacts: int | None = None) -> Detector:
         """Builds the detector; `options` are the method's keyword options; `max_contacts`
         limits the proximity contacts of one call (ValueError beyond it)."""
     def detect(self, positions: np.ndarray) -> np.ndarray:
@@ -88,11 +91,12 @@ def deform(rest: np.ndarray, shape: str, **params: float) -> np.ndarray:
 def paper_scenes() -> list[str]:
     """Names of the paper's cloth scenes, in the paper's order."""
 
+@final
 class Simulation:
     """One of the paper's cloth scenes in motion, stepped with a detection method."""
 
-    def __init__(self, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
-                 dt: float | None = None, self_collision: bool = True) -> None:
+    def __new__(cls, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
+                 dt: float | None = None, self_collision: bool = True) -> Simulation:
         """Builds the scene's cloth and simulator."""
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats."""
@@ -148,10 +152,11 @@ def bench_scaling(sizes: list[int], states: list[str], methods: list[str], reps:
 def sensor_defaults() -> dict[str, Any]:
     """Default values of the particle sensor's options, as a dict."""
 
+@final
 class Hierarchy:
     """The bottom-up BVH of one mesh (as the BVH detectors build it), refitted on demand."""
 
-    def __init__(self, mesh: Mesh) -> None:
+    def __new__(cls, mesh: Mesh) -> Hierarchy:
         """Builds the hierarchy of `mesh` on its rest shape."""
     def refit(self, positions: np.ndarray) -> None:
         """Refits every box and cone to (n,3) float64 positions."""

@@ -35,7 +35,10 @@ pub fn compare_methods<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let list = parse_methods(methods)?;
-    let opts = DetectorOptions { thickness, ..Default::default() };
+    let opts = DetectorOptions {
+        thickness,
+        ..Default::default()
+    };
     opts.validate().map_err(crate::errors::engine_err)?;
     let fr = crate::convert::frames(&frames)?;
     let m = mesh.inner.clone();
@@ -78,7 +81,8 @@ pub fn report(cb: &Option<Py<PyAny>>, done: usize, err: &mut Option<PyErr>) -> s
     if err.is_none() {
         let r = Python::attach(|py| {
             py.check_signals()?;
-            cb.as_ref().map_or(Ok(()), |cb| cb.call1(py, (done,)).map(|_| ()))
+            cb.as_ref()
+                .map_or(Ok(()), |cb| cb.call1(py, (done,)).map(|_| ()))
         });
         *err = r.err();
     }

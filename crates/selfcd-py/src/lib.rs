@@ -2,8 +2,9 @@
 //!
 //! Thin by design: arrays cross the boundary whole (numpy in, numpy out),
 //! every long call releases the GIL, engine errors become `ValueError` with the
-//! engine's message, and a panic (which the engine should never raise) becomes
-//! a `RuntimeError` instead of unwinding into the interpreter.
+//! engine's message (`MemoryError` for an allocation failure, `KeyboardInterrupt`
+//! for Ctrl-C during a long call), and a panic (which the engine should never
+//! raise) becomes a `RuntimeError` instead of unwinding into the interpreter.
 
 mod bench;
 mod cloth;

@@ -10,14 +10,17 @@ use std::f64::consts::PI;
 /// A square grid cloth in the xy plane: `n x n` vertices over `[0, size]^2`,
 /// `2 (n-1)^2` triangles, counter-clockwise seen from +z, diagonals alternating
 /// in a checkerboard so the mesh has no preferred direction.
-pub fn grid(n: usize, size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+pub fn grid(n: usize, size: f64) -> MeshArrays {
     grid_rect(n, n, size, size)
 }
+
+/// Vertices and triangles of a generated mesh.
+pub type MeshArrays = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
 /// [`grid`] for a side taken from user input: an error, not an abort or a
 /// wrapped index, when the side is below 2, the vertices overflow 32-bit
 /// indices, or the arrays cannot be allocated ([`Error::OutOfMemory`]).
-pub fn try_grid(n: usize, size: f64) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>)> {
+pub fn try_grid(n: usize, size: f64) -> Result<MeshArrays> {
     let vertices = n
         .checked_mul(n)
         .filter(|&v| n >= 2 && v <= 1usize << 32)
@@ -34,7 +37,7 @@ pub fn try_grid(n: usize, size: f64) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>)> {
 }
 
 /// A rectangular grid cloth: `nx x ny` vertices over `[0, sx] x [0, sy]`.
-pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> MeshArrays {
     let (mut v, mut f) = (Vec::new(), Vec::new());
     fill_grid(nx, ny, sx, sy, &mut v, &mut f);
     (v, f)
@@ -71,7 +74,7 @@ fn fill_grid(nx: usize, ny: usize, sx: f64, sy: f64, v: &mut Vec<[f64; 3]>, f: &
 /// A closed UV sphere of radius `r` about the origin, poles on the z axis:
 /// `rings >= 2` bands of latitude, `segments >= 3` of longitude, outward
 /// counter-clockwise triangles. The obstacle of the cloth tests and benchmarks.
-pub fn sphere(rings: usize, segments: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+pub fn sphere(rings: usize, segments: usize, r: f64) -> MeshArrays {
     let (rings, segments) = (rings.max(2), segments.max(3));
     let mut v = vec![[0.0, 0.0, r]];
     for i in 1..rings {
@@ -215,7 +218,7 @@ impl std::str::FromStr for BenchState {
     }
 }
 
-/// Extent of the rest shape: (min corner, width along x).
+/// Extent of the rest shape: (min corner, max corner, width along x; never 0).
 fn frame(rest: &[DVec3]) -> (DVec3, DVec3, f64) {
     let lo = rest.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
     let hi = rest.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
@@ -233,13 +236,20 @@ impl Deformation {
             Fold { angle, radius } => (vec![("angle", angle), ("radius", radius)], &[]),
             ZFold { layers, gap } => {
                 if layers == 0 {
-                    return Err(Error::InvalidParameter("zfold layers must be at least 1".into()));
+                    return Err(Error::InvalidParameter(
+                        "zfold layers must be at least 1".into(),
+                    ));
                 }
                 (vec![("gap", gap)], &[])
             }
-            Crumple { amplitude, wavelength, .. } => {
-                (vec![("amplitude", amplitude), ("wavelength", wavelength)], &["wavelength"])
-            }
+            Crumple {
+                amplitude,
+                wavelength,
+                ..
+            } => (
+                vec![("amplitude", amplitude), ("wavelength", wavelength)],
+                &["wavelength"],
+            ),
             Twist { turns } => (vec![("turns", turns)], &[]),
             Roll { turns, gap } => (vec![("turns", turns), ("gap", gap)], &["turns"]),
             Noise { amplitude, .. } => (vec![("amplitude", amplitude)], &[]),
@@ -247,9 +257,7 @@ impl Deformation {
         for (name, v) in named {
             let must_be_positive = positive.contains(&name);
             let non_negative = matches!(name, "radius" | "gap");
-            let ok = v.is_finite()
-                && (!must_be_positive || v > 0.0)
-                && (!non_negative || v >= 0.0);
+            let ok = v.is_finite() && (!must_be_positive || v > 0.0) && (!non_negative || v >= 0.0);
             if !ok {
                 let range = if must_be_positive {
                     "finite and > 0"
@@ -286,7 +294,11 @@ impl Deformation {
                         let k = (u.floor() as usize).min(layers - 1);
                         let local = (u - k as f64) * panel;
                         let on_fold = k > 0 && (u - k as f64).abs() < 1e-12;
-                        let x = if k % 2 == 0 { local } else { panel - local };
+                        let x = if k.is_multiple_of(2) {
+                            local
+                        } else {
+                            panel - local
+                        };
                         let z = if on_fold {
                             (k as f64 - 0.5) * gap * w
                         } else {
@@ -406,6 +418,62 @@ pub fn scale(positions: &[DVec3], s: f64) -> Vec<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bad_shapes_and_sizes_are_errors_not_panics() {
+        let (v, _) = grid(5, 1.0);
+        let rest: Vec<DVec3> = v.iter().map(|p| DVec3::from_array(*p)).collect();
+        let zero = Deformation::ZFold {
+            layers: 0,
+            gap: 0.1,
+        };
+        assert!(zero.validate().is_err());
+        assert_eq!(zero.apply(&rest).len(), rest.len()); // no underflow even unchecked
+        for bad in [
+            Deformation::Fold {
+                angle: f64::NAN,
+                radius: 0.1,
+            },
+            Deformation::Fold {
+                angle: 1.0,
+                radius: -0.1,
+            },
+            Deformation::Crumple {
+                amplitude: 0.1,
+                wavelength: 0.0,
+                seed: 1,
+            },
+            Deformation::Roll {
+                turns: 0.0,
+                gap: 0.1,
+            },
+            Deformation::Twist {
+                turns: f64::INFINITY,
+            },
+            Deformation::Noise {
+                amplitude: f64::NAN,
+                seed: 1,
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+        assert!(Deformation::ZFold {
+            layers: 3,
+            gap: 0.0
+        }
+        .validate()
+        .is_ok());
+        assert!(matches!(try_grid(1, 1.0), Err(Error::InvalidParameter(_))));
+        assert!(matches!(
+            try_grid(1 << 16 | 1, 1.0),
+            Err(Error::InvalidParameter(_))
+        ));
+        assert!(matches!(
+            try_grid(usize::MAX, 1.0),
+            Err(Error::InvalidParameter(_))
+        ));
+        assert_eq!(try_grid(4, 2.0).unwrap(), grid(4, 2.0));
+    }
 
     #[test]
     fn paper_grid_has_200_triangles() {

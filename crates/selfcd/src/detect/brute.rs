@@ -22,7 +22,11 @@ pub struct BruteDetector {
 impl BruteDetector {
     /// A brute-force detector for `mesh`.
     pub fn new(mesh: Arc<Mesh>, thickness: f64) -> Self {
-        BruteDetector { mesh, thickness, max_contacts: DEFAULT_MAX_CONTACTS }
+        BruteDetector {
+            mesh,
+            thickness,
+            max_contacts: DEFAULT_MAX_CONTACTS,
+        }
     }
 }
 

@@ -106,14 +106,28 @@ pub struct Proximity<'a> {
 
 impl<'a> Proximity<'a> {
     /// The test with thickness `thickness`, collecting at most `max_contacts` contacts.
-    pub fn new(mesh: &'a Mesh, positions: &'a [DVec3], thickness: f64, max_contacts: usize) -> Self {
-        Proximity { mesh, positions, thickness, max_contacts, found: AtomicUsize::new(0) }
+    pub fn new(
+        mesh: &'a Mesh,
+        positions: &'a [DVec3],
+        thickness: f64,
+        max_contacts: usize,
+    ) -> Self {
+        Proximity {
+            mesh,
+            positions,
+            thickness,
+            max_contacts,
+            found: AtomicUsize::new(0),
+        }
     }
 
     /// Err([`Error::TooManyContacts`]) when the query reached its limit (its output is then incomplete).
     pub fn check_output(&self) -> Result<()> {
         if self.found.load(Ordering::Relaxed) > self.max_contacts {
-            return Err(Error::TooManyContacts { limit: self.max_contacts, thickness: self.thickness });
+            return Err(Error::TooManyContacts {
+                limit: self.max_contacts,
+                thickness: self.thickness,
+            });
         }
         Ok(())
     }

@@ -103,13 +103,22 @@ impl SensorParams {
             }
         }
         if self.count > MAX_COUNT {
-            return bad(format!("sensor count must be at most {MAX_COUNT}, got {}", self.count));
+            return bad(format!(
+                "sensor count must be at most {MAX_COUNT}, got {}",
+                self.count
+            ));
         }
         if !(1..=MAX_UPDATES).contains(&self.n_max) {
-            return bad(format!("sensor n_max must be in 1..={MAX_UPDATES}, got {}", self.n_max));
+            return bad(format!(
+                "sensor n_max must be in 1..={MAX_UPDATES}, got {}",
+                self.n_max
+            ));
         }
         if self.n_min > self.n_max {
-            return bad(format!("sensor n_min ({}) must not exceed n_max ({})", self.n_min, self.n_max));
+            return bad(format!(
+                "sensor n_min ({}) must not exceed n_max ({})",
+                self.n_min, self.n_max
+            ));
         }
         if !matches!(
             self.inner,
