@@ -36,9 +36,10 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -180,7 +181,7 @@ class Warp:
             a, b, c = idx[3 * t], idx[3 * t + 1], idx[3 * t + 2]
             pa, pb, pc = pts[a], pts[b], pts[c]
             q = wp.mesh_query_aabb(mesh, wp.min(wp.min(pa, pb), pc), wp.max(wp.max(pa, pb), pc))
-            f = int(0)
+            f = 0
             while wp.mesh_query_aabb_next(q, f):
                 if f > t:
                     d, e, g = idx[3 * f], idx[3 * f + 1], idx[3 * f + 2]
@@ -282,7 +283,7 @@ def per_frame(inp: Input, reps: int, warp: Warp | None, tick: Callable[[str], No
         for k, run in runners.items():
             last[k] = []
             for p in inp.frames:
-                t, pairs = timed(lambda: run(p))
+                t, pairs = timed(lambda run=run, p=p: run(p))
                 last[k].append(pairs)
                 if rep:
                     times[k].append(t)
@@ -356,7 +357,7 @@ def proximity(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) ->
     for rep in range(reps + 1):
         for k, run in runners.items():
             for p in inp.frames[:PROXIMITY_FRAMES]:
-                t, out[k] = timed(lambda: run(p))
+                t, out[k] = timed(lambda run=run, p=p: run(p))
                 if rep:
                     times[k].append(t)
             tick(f"{inp.name} proximity {k}")
@@ -492,7 +493,7 @@ def load_average() -> str:
     try:
         return subprocess.run(["uptime"], capture_output=True, text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return "load average: %.2f, %.2f, %.2f" % os.getloadavg()
+        return "load average: {:.2f}, {:.2f}, {:.2f}".format(*os.getloadavg())
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:

@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 import selfcd
-from selfcd.segments import segment, segments
-
 from conftest import noisy_grid
+from selfcd.segments import segment, segments
 
 
 def run(*args: str) -> subprocess.CompletedProcess:

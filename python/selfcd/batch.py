@@ -20,11 +20,13 @@ import csv
 import html
 import re
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-from . import _api, io as mesh_io
+from . import _api
+from . import io as mesh_io
 from .check import check_frames
 
 #: Columns of results.csv, in order.

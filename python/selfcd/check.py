@@ -6,8 +6,9 @@ as `selfcd detect` and `selfcd batch` do; the first frame is the rest shape.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 

@@ -14,7 +14,10 @@ import click
 import numpy as np
 from tqdm import tqdm
 
-from . import _api, bench as bench_mod, demo as demo_mod, io as mesh_io
+from . import _api
+from . import bench as bench_mod
+from . import demo as demo_mod
+from . import io as mesh_io
 from .check import DetectRun, check_frames
 from .weld import UnweldedMeshWarning
 

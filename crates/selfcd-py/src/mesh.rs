@@ -119,9 +119,21 @@ pub fn continuous_impacts<'py>(
         ElementPair::VertexTriangle(x, y) | ElementPair::EdgeEdge(x, y) => [x as i64, y as i64],
     };
     let d = PyDict::new(py);
-    d.set_item("vertex_triangle", rows_array(py, found.vertex_triangle.iter().map(ids))?)?;
-    d.set_item("vertex_triangle_toi", PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)))?;
-    d.set_item("edge_edge", rows_array(py, found.edge_edge.iter().map(ids))?)?;
-    d.set_item("edge_edge_toi", PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)))?;
+    d.set_item(
+        "vertex_triangle",
+        rows_array(py, found.vertex_triangle.iter().map(ids))?,
+    )?;
+    d.set_item(
+        "vertex_triangle_toi",
+        PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)),
+    )?;
+    d.set_item(
+        "edge_edge",
+        rows_array(py, found.edge_edge.iter().map(ids))?,
+    )?;
+    d.set_item(
+        "edge_edge_toi",
+        PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)),
+    )?;
     Ok(d)
 }

@@ -18,7 +18,11 @@ fn fold_frames(mesh: &Mesh, frames: usize, max_angle: f64) -> Vec<Vec<DVec3>> {
     (0..frames)
         .map(|f| {
             let s = f as f64 / (frames - 1) as f64;
-            Deformation::Fold { angle: max_angle * s, radius: 0.05 }.apply(mesh.rest())
+            Deformation::Fold {
+                angle: max_angle * s,
+                radius: 0.05,
+            }
+            .apply(mesh.rest())
         })
         .collect()
 }
@@ -26,20 +30,28 @@ fn fold_frames(mesh: &Mesh, frames: usize, max_angle: f64) -> Vec<Vec<DVec3>> {
 /// A travelling wave of amplitude `amp * width`.
 fn wave(rest: &[DVec3], width: f64, amp: f64, s: f64) -> Vec<DVec3> {
     rest.iter()
-        .map(|p| *p + DVec3::Z * (amp * width * (2.0 * PI * ((p.x + 0.5 * p.y) / width - 2.0 * s)).sin()))
+        .map(|p| {
+            *p + DVec3::Z * (amp * width * (2.0 * PI * ((p.x + 0.5 * p.y) / width - 2.0 * s)).sin())
+        })
         .collect()
 }
 
 /// Sensor points near the centre of an n x n grid, `gap` rest units apart (a square of four).
 fn cluster(mesh: &Mesh, gap: f64) -> Vec<SurfacePoint> {
     let c = DVec3::new(0.5, 0.5, 0.0) * (mesh.rest()[mesh.n_vertices() - 1].x);
-    let targets = [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)].map(|(x, y)| c + DVec3::new(x, y, 0.0) * gap * 0.5);
+    let targets = [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+        .map(|(x, y)| c + DVec3::new(x, y, 0.0) * gap * 0.5);
     targets
         .iter()
         .map(|&t| {
             let tri = (0..mesh.n_triangles())
                 .min_by(|&a, &b| {
-                    let d = |k: usize| mesh.corners(mesh.rest(), k).iter().sum::<DVec3>().distance(t * 3.0);
+                    let d = |k: usize| {
+                        mesh.corners(mesh.rest(), k)
+                            .iter()
+                            .sum::<DVec3>()
+                            .distance(t * 3.0)
+                    };
                     d(a).total_cmp(&d(b))
                 })
                 .unwrap();
@@ -62,14 +74,29 @@ fn min_pair_distance(p: &[DVec3]) -> f64 {
 fn particles_stay_on_the_surface_through_long_random_deformations() {
     let mesh = square(21, 1.0);
     // Aggressive motion to stress the walk: long steps, many particles.
-    let params = SensorParams { count: 12, step_gain: 64.0, max_step: 3.0, n_max: 4, ..Default::default() };
+    let params = SensorParams {
+        count: 12,
+        step_gain: 64.0,
+        max_step: 3.0,
+        n_max: 4,
+        ..Default::default()
+    };
     let mut sensor = Sensor::new(mesh.clone(), params).unwrap();
     let mut rng = SplitMix::new(7);
     for frame in 0..300 {
         let shape = match frame % 3 {
-            0 => Deformation::Crumple { amplitude: 0.4 * rng.unit(), wavelength: 0.2 + 0.5 * rng.unit(), seed: rng.next_u64() },
-            1 => Deformation::Noise { amplitude: 0.05 * rng.unit(), seed: rng.next_u64() },
-            _ => Deformation::Twist { turns: 2.0 * rng.unit() - 1.0 },
+            0 => Deformation::Crumple {
+                amplitude: 0.4 * rng.unit(),
+                wavelength: 0.2 + 0.5 * rng.unit(),
+                seed: rng.next_u64(),
+            },
+            1 => Deformation::Noise {
+                amplitude: 0.05 * rng.unit(),
+                seed: rng.next_u64(),
+            },
+            _ => Deformation::Twist {
+                turns: 2.0 * rng.unit() - 1.0,
+            },
         };
         let pos = shape.apply(mesh.rest());
         sensor.relax(&pos).unwrap();
@@ -79,9 +106,20 @@ fn particles_stay_on_the_surface_through_long_random_deformations() {
             assert!((p.bary.iter().sum::<f64>() - 1.0).abs() < 1e-12);
             let [a, b, c] = mesh.corners(&pos, p.tri as usize);
             let (d2, _) = point_triangle_distance2(x, a, b, c);
-            assert!(d2.sqrt() <= 1e-9 * extent, "frame {frame}: particle {x} is {} off its triangle", d2.sqrt());
+            assert!(
+                d2.sqrt() <= 1e-9 * extent,
+                "frame {frame}: particle {x} is {} off its triangle",
+                d2.sqrt()
+            );
             let r = p.rest_position(&mesh);
-            assert!(r.x >= -1e-12 && r.x <= 1.0 + 1e-12 && r.y >= -1e-12 && r.y <= 1.0 + 1e-12 && r.z == 0.0, "left the sheet: {r}");
+            assert!(
+                r.x >= -1e-12
+                    && r.x <= 1.0 + 1e-12
+                    && r.y >= -1e-12
+                    && r.y <= 1.0 + 1e-12
+                    && r.z == 0.0,
+                "left the sheet: {r}"
+            );
         }
     }
 }
@@ -92,24 +130,44 @@ fn flat_and_waving_cloth_spread_the_particles_and_never_trigger() {
         let mesh = square(n, 1.0);
         let unit = mesh.mean_edge_length();
         // Start bunched up: a square of side 0.4 (4 edges on the 11 x 11 grid), above the trigger distance.
-        let mut sensor = Sensor::with_points(mesh.clone(), SensorParams::default(), cluster(&mesh, 0.4)).unwrap();
+        let mut sensor =
+            Sensor::with_points(mesh.clone(), SensorParams::default(), cluster(&mesh, 0.4))
+                .unwrap();
         let start = min_pair_distance(&sensor.positions(mesh.rest()));
         assert!(start / unit > sensor.trigger_distance(), "start {start}");
         for f in 0..400 {
-            let pos = if f < 200 { mesh.rest().to_vec() } else { wave(mesh.rest(), 1.0, 0.05, f as f64 / 200.0) };
+            let pos = if f < 200 {
+                mesh.rest().to_vec()
+            } else {
+                wave(mesh.rest(), 1.0, 0.05, f as f64 / 200.0)
+            };
             let r = sensor.relax(&pos).unwrap();
-            assert!(!r.triggered, "n {n} frame {f}: triggered at SL {} (ODL {})", r.closest.sl, r.closest.odl);
+            assert!(
+                !r.triggered,
+                "n {n} frame {f}: triggered at SL {} (ODL {})",
+                r.closest.sl, r.closest.odl
+            );
         }
         // Spread: every pair at least 0.9 of the width apart in rest space (the corners of the square).
-        let rest: Vec<DVec3> = sensor.points().iter().map(|p| p.rest_position(&mesh)).collect();
-        assert!(min_pair_distance(&rest) > 0.9, "n {n}: not spread: {rest:?}");
+        let rest: Vec<DVec3> = sensor
+            .points()
+            .iter()
+            .map(|p| p.rest_position(&mesh))
+            .collect();
+        assert!(
+            min_pair_distance(&rest) > 0.9,
+            "n {n}: not spread: {rest:?}"
+        );
     }
 }
 
 /// Frames (first with contacts per the reference, first triggered) of a run of `[reference-ish, gated]`.
 fn onsets(bvh: &MethodRun, gated: &MethodRun) -> (Option<usize>, Option<usize>) {
     let first_contact = bvh.frames.iter().position(|r| r.stats.contacts > 0);
-    let first_trigger = gated.frames.iter().position(|r| r.stats.triggered == Some(true));
+    let first_trigger = gated
+        .frames
+        .iter()
+        .position(|r| r.stats.triggered == Some(true));
     (first_contact, first_trigger)
 }
 
@@ -119,11 +177,24 @@ fn fold_over_the_closest_pair_is_across_the_fold_and_the_gate_fires_in_time() {
         let mesh = square(n, 1.0);
         let frames = fold_frames(&mesh, 60, 1.25 * PI);
         let opts = DetectorOptions::default();
-        let runs = compare_methods(&mesh, &frames, &[Method::BvhConesContour, Method::SensorGated], &opts, |_| {}).unwrap();
+        let runs = compare_methods(
+            &mesh,
+            &frames,
+            &[Method::BvhConesContour, Method::SensorGated],
+            &opts,
+            |_| {},
+        )
+        .unwrap();
         let (contact, trigger) = onsets(&runs[0], &runs[1]);
-        let (contact, trigger) = (contact.expect("the fold must self-intersect"), trigger.expect("the gate must fire"));
+        let (contact, trigger) = (
+            contact.expect("the fold must self-intersect"),
+            trigger.expect("the gate must fire"),
+        );
         eprintln!("fold {n}x{n}: first contact frame {contact}, first trigger frame {trigger}: {} frames early", contact as i64 - trigger as i64);
-        assert!(trigger <= contact, "n {n}: triggered at {trigger}, contacts from {contact}");
+        assert!(
+            trigger <= contact,
+            "n {n}: triggered at {trigger}, contacts from {contact}"
+        );
         let missed: u64 = runs[1].frames.iter().map(|r| r.missed).sum();
         assert_eq!(missed, 0, "n {n}: the gate skipped frames with contacts");
         assert!(runs[1].frames.iter().all(|r| r.spurious == 0));
@@ -135,10 +206,17 @@ fn fold_over_the_closest_pair_is_across_the_fold_and_the_gate_fires_in_time() {
             if f >= trigger {
                 let ri = sensor.points()[r.closest.i].rest_position(&mesh);
                 let rj = sensor.points()[r.closest.j].rest_position(&mesh);
-                assert!((ri.x - 0.5) * (rj.x - 0.5) < 0.0, "n {n} frame {f}: pair not across the fold: {ri} {rj}");
+                assert!(
+                    (ri.x - 0.5) * (rj.x - 0.5) < 0.0,
+                    "n {n} frame {f}: pair not across the fold: {ri} {rj}"
+                );
                 // Close in space, far along the surface: t = (ro - rs) / ro > 0, and > 1/2 once in contact.
                 let t = (r.closest.odl - r.closest.sl) / r.closest.odl;
-                assert!(t > if f >= contact { 0.5 } else { 0.0 }, "n {n} frame {f}: {:?}", r.closest);
+                assert!(
+                    t > if f >= contact { 0.5 } else { 0.0 },
+                    "n {n} frame {f}: {:?}",
+                    r.closest
+                );
             }
         }
     }
@@ -154,11 +232,21 @@ fn scaling_the_mesh_by_1e3_gives_the_same_trajectories() {
     for (f, pos) in frames.iter().enumerate() {
         let ra = a.relax(pos).unwrap();
         let rb = b.relax(&scale(pos, 1000.0)).unwrap();
-        assert_eq!((ra.steps, ra.moving, ra.triggered), (rb.steps, rb.moving, rb.triggered), "frame {f}");
-        assert!((ra.closest.sl - rb.closest.sl).abs() < 1e-9 && (ra.closest.odl - rb.closest.odl).abs() < 1e-9);
+        assert_eq!(
+            (ra.steps, ra.moving, ra.triggered),
+            (rb.steps, rb.moving, rb.triggered),
+            "frame {f}"
+        );
+        assert!(
+            (ra.closest.sl - rb.closest.sl).abs() < 1e-9
+                && (ra.closest.odl - rb.closest.odl).abs() < 1e-9
+        );
         let (pa, pb) = (a.positions(pos), b.positions(&scale(pos, 1000.0)));
         for (x, y) in pa.iter().zip(&pb) {
-            assert!((*x / a.unit() - *y / b.unit()).length() < 1e-9, "frame {f}: {x} vs {y}");
+            assert!(
+                (*x / a.unit() - *y / b.unit()).length() < 1e-9,
+                "frame {f}: {x} vs {y}"
+            );
         }
     }
 }
@@ -168,7 +256,11 @@ fn relaxation_stops_by_n_max_or_n_min() {
     let mesh = square(21, 1.0);
     let far_from_rest = cluster(&mesh, 0.3);
     let run = |n_min: u32, n_max: u32| {
-        let p = SensorParams { n_min, n_max, ..Default::default() };
+        let p = SensorParams {
+            n_min,
+            n_max,
+            ..Default::default()
+        };
         let mut s = Sensor::with_points(mesh.clone(), p, far_from_rest.clone()).unwrap();
         s.relax(mesh.rest()).unwrap()
     };
@@ -193,21 +285,60 @@ fn sensor_gated_against_brute_counts_what_the_gate_missed() {
     let mesh = square(11, 1.0);
     type Shape = Box<dyn Fn(f64) -> Deformation>;
     let anims: [(&str, Shape); 4] = [
-        ("fold", Box::new(|s| Deformation::Fold { angle: 1.25 * PI * s, radius: 0.05 })),
-        ("roll", Box::new(|s| Deformation::Roll { turns: 2.0 * s, gap: 0.02 })),
+        (
+            "fold",
+            Box::new(|s| Deformation::Fold {
+                angle: 1.25 * PI * s,
+                radius: 0.05,
+            }),
+        ),
+        (
+            "roll",
+            Box::new(|s| Deformation::Roll {
+                turns: 2.0 * s,
+                gap: 0.02,
+            }),
+        ),
         ("twist", Box::new(|s| Deformation::Twist { turns: s })),
-        ("crumple", Box::new(|s| Deformation::Crumple { amplitude: 0.3 * s, wavelength: 0.4, seed: 1 })),
+        (
+            "crumple",
+            Box::new(|s| Deformation::Crumple {
+                amplitude: 0.3 * s,
+                wavelength: 0.4,
+                seed: 1,
+            }),
+        ),
     ];
     for (name, shape) in &anims {
-        let frames: Vec<Vec<DVec3>> = (0..40).map(|f| shape(f as f64 / 39.0).apply(mesh.rest())).collect();
-        let runs = compare_methods(&mesh, &frames, &[Method::Brute, Method::SensorGated], &DetectorOptions::default(), |_| {}).unwrap();
+        let frames: Vec<Vec<DVec3>> = (0..40)
+            .map(|f| shape(f as f64 / 39.0).apply(mesh.rest()))
+            .collect();
+        let runs = compare_methods(
+            &mesh,
+            &frames,
+            &[Method::Brute, Method::SensorGated],
+            &DetectorOptions::default(),
+            |_| {},
+        )
+        .unwrap();
         let (brute, gated) = (&runs[0], &runs[1]);
         let mut missed_expected = 0;
         for (f, (b, g)) in brute.frames.iter().zip(&gated.frames).enumerate() {
-            assert_eq!((b.missed, b.spurious), (0, 0), "brute disagrees with the reference");
-            assert_eq!(g.spurious, 0, "{name} frame {f}: the gate reported a false contact");
+            assert_eq!(
+                (b.missed, b.spurious),
+                (0, 0),
+                "brute disagrees with the reference"
+            );
+            assert_eq!(
+                g.spurious, 0,
+                "{name} frame {f}: the gate reported a false contact"
+            );
             match g.stats.triggered {
-                Some(true) => assert_eq!((g.missed, g.stats.contacts), (0, b.stats.contacts), "{name} frame {f}"),
+                Some(true) => assert_eq!(
+                    (g.missed, g.stats.contacts),
+                    (0, b.stats.contacts),
+                    "{name} frame {f}"
+                ),
                 Some(false) => {
                     assert_eq!((g.stats.contacts, g.stats.primitive_tests), (0, 0));
                     missed_expected += b.stats.contacts;
@@ -216,9 +347,16 @@ fn sensor_gated_against_brute_counts_what_the_gate_missed() {
             }
         }
         let missed: u64 = gated.frames.iter().map(|r| r.missed).sum();
-        let triggered = gated.frames.iter().filter(|r| r.stats.triggered == Some(true)).count();
+        let triggered = gated
+            .frames
+            .iter()
+            .filter(|r| r.stats.triggered == Some(true))
+            .count();
         eprintln!("{name}: triggered {triggered}/40 frames, contacts missed by the gate {missed}");
-        assert_eq!(missed, missed_expected, "{name}: misses are the contacts on untriggered frames");
+        assert_eq!(
+            missed, missed_expected,
+            "{name}: misses are the contacts on untriggered frames"
+        );
         if *name != "crumple" {
             assert_eq!(missed, 0, "{name}: the gate skipped frames with contacts");
         }
@@ -227,41 +365,97 @@ fn sensor_gated_against_brute_counts_what_the_gate_missed() {
 
 #[test]
 fn detector_api_errors_and_particles() {
-    assert_eq!("sensor-gated".parse::<Method>().unwrap(), Method::SensorGated);
+    assert_eq!(
+        "sensor-gated".parse::<Method>().unwrap(),
+        Method::SensorGated
+    );
     assert!(!Method::SensorGated.is_conservative());
     let mesh = square(11, 1.0);
-    let mut det = new_detector(mesh.clone(), Method::SensorGated, &DetectorOptions::default()).unwrap();
+    let mut det = new_detector(
+        mesh.clone(),
+        Method::SensorGated,
+        &DetectorOptions::default(),
+    )
+    .unwrap();
     let d = det.detect(mesh.rest()).unwrap();
     assert_eq!(d.stats.triggered, Some(false));
     assert!(d.stats.relax_steps >= 1 && d.stats.closest_sl > 0.0 && d.stats.closest_odl > 0.0);
     assert_eq!(det.particles().len(), 4);
-    assert!(new_detector(mesh.clone(), Method::Bvh, &DetectorOptions::default()).unwrap().particles().is_empty());
+    assert!(
+        new_detector(mesh.clone(), Method::Bvh, &DetectorOptions::default())
+            .unwrap()
+            .particles()
+            .is_empty()
+    );
     assert!(det.detect(&mesh.rest()[1..]).is_err());
 
     // A tilted flat sheet is fine; a curved one is refused with a typed error.
-    let tilted: Vec<[f64; 3]> = mesh.rest().iter().map(|p| [p.x, p.y * 0.6, p.y * 0.8]).collect();
+    let tilted: Vec<[f64; 3]> = mesh
+        .rest()
+        .iter()
+        .map(|p| [p.x, p.y * 0.6, p.y * 0.8])
+        .collect();
     let flat = Arc::new(Mesh::new(tilted, mesh.triangles().to_vec()).unwrap());
     assert!(new_detector(flat, Method::SensorGated, &DetectorOptions::default()).is_ok());
-    let bent = Deformation::Fold { angle: PI / 2.0, radius: 0.1 }.apply(mesh.rest());
+    let bent = Deformation::Fold {
+        angle: PI / 2.0,
+        radius: 0.1,
+    }
+    .apply(mesh.rest());
     let bent: Vec<[f64; 3]> = bent.iter().map(|p| p.to_array()).collect();
     let curved = Arc::new(Mesh::new(bent, mesh.triangles().to_vec()).unwrap());
-    let err = new_detector(curved, Method::SensorGated, &DetectorOptions::default()).err().unwrap();
+    let err = new_detector(curved, Method::SensorGated, &DetectorOptions::default())
+        .err()
+        .unwrap();
     assert!(matches!(err, Error::CurvedRestShape { .. }), "{err}");
 
     for bad in [
-        SensorParams { count: 1, ..Default::default() },
-        SensorParams { n_max: 0, ..Default::default() },
-        SensorParams { tolerance: f64::NAN, ..Default::default() },
-        SensorParams { max_step: 0.0, ..Default::default() },
-        SensorParams { a: -1.0, ..Default::default() },
-        SensorParams { inner: Method::Brute, ..Default::default() },
-        SensorParams { count: 1000, ..Default::default() },
+        SensorParams {
+            count: 1,
+            ..Default::default()
+        },
+        SensorParams {
+            n_max: 0,
+            ..Default::default()
+        },
+        SensorParams {
+            tolerance: f64::NAN,
+            ..Default::default()
+        },
+        SensorParams {
+            max_step: 0.0,
+            ..Default::default()
+        },
+        SensorParams {
+            a: -1.0,
+            ..Default::default()
+        },
+        SensorParams {
+            inner: Method::Brute,
+            ..Default::default()
+        },
+        SensorParams {
+            count: 1000,
+            ..Default::default()
+        },
     ] {
-        let opts = DetectorOptions { sensor: bad.clone(), ..Default::default() };
+        let opts = DetectorOptions {
+            sensor: bad.clone(),
+            ..Default::default()
+        };
         let err = new_detector(mesh.clone(), Method::SensorGated, &opts).err();
-        assert!(matches!(err, Some(Error::InvalidParameter(_))), "{bad:?}: {err:?}");
+        assert!(
+            matches!(err, Some(Error::InvalidParameter(_))),
+            "{bad:?}: {err:?}"
+        );
     }
-    let off = vec![SurfacePoint { tri: 0, bary: [0.5, 0.6, -0.1] }, SurfacePoint::centroid(1)];
+    let off = vec![
+        SurfacePoint {
+            tri: 0,
+            bary: [0.5, 0.6, -0.1],
+        },
+        SurfacePoint::centroid(1),
+    ];
     assert!(Sensor::with_points(mesh, SensorParams::default(), off).is_err());
 }
 
@@ -270,20 +464,35 @@ fn deterministic_and_lazy_refit_gives_the_same_contacts() {
     let mesh = square(21, 1.0);
     let frames = fold_frames(&mesh, 30, 1.25 * PI);
     let run = |refit_every_frame: bool| {
-        let opts = DetectorOptions { sensor: SensorParams { refit_every_frame, ..Default::default() }, ..Default::default() };
+        let opts = DetectorOptions {
+            sensor: SensorParams {
+                refit_every_frame,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
         let mut det = new_detector(mesh.clone(), Method::SensorGated, &opts).unwrap();
         frames
             .iter()
             .map(|f| {
                 let d = det.detect(f).unwrap();
-                (d.pairs, d.stats.triggered, d.stats.relax_steps, d.stats.closest_sl, det.particles())
+                (
+                    d.pairs,
+                    d.stats.triggered,
+                    d.stats.relax_steps,
+                    d.stats.closest_sl,
+                    det.particles(),
+                )
             })
             .collect::<Vec<_>>()
     };
     let (a, b, c) = (run(true), run(true), run(false));
     assert_eq!(a, b);
     assert_eq!(a, c);
-    assert!(a.iter().any(|r| !r.0.is_empty()), "the fold must produce contacts");
+    assert!(
+        a.iter().any(|r| !r.0.is_empty()),
+        "the fold must produce contacts"
+    );
 }
 
 #[test]
@@ -291,9 +500,15 @@ fn thickness_widens_the_trigger() {
     let mesh = square(11, 1.0);
     let frames = fold_frames(&mesh, 60, 1.25 * PI);
     let first = |thickness: f64| {
-        let opts = DetectorOptions { thickness, ..Default::default() };
+        let opts = DetectorOptions {
+            thickness,
+            ..Default::default()
+        };
         let mut det = new_detector(mesh.clone(), Method::SensorGated, &opts).unwrap();
-        frames.iter().position(|f| det.detect(f).unwrap().stats.triggered == Some(true)).unwrap()
+        frames
+            .iter()
+            .position(|f| det.detect(f).unwrap().stats.triggered == Some(true))
+            .unwrap()
     };
     assert!(first(0.2) < first(0.0));
 }
