@@ -226,8 +226,9 @@ fn frame(rest: &[DVec3]) -> (DVec3, DVec3, f64) {
 }
 
 impl Deformation {
-    /// Checks the parameters: every number finite; `layers` >= 1; radius,
-    /// gaps >= 0; wavelength and roll turns > 0. [`Deformation::apply`] with
+    /// Checks the parameters: every number finite; `layers` >= 1; radius >= 0;
+    /// wavelength and roll turns > 0 (a negative gap is allowed: the layers
+    /// then pass through each other). [`Deformation::apply`] with
     /// other values does not panic, but its positions mean nothing.
     pub fn validate(&self) -> Result<()> {
         use Deformation::*;
@@ -256,7 +257,7 @@ impl Deformation {
         };
         for (name, v) in named {
             let must_be_positive = positive.contains(&name);
-            let non_negative = matches!(name, "radius" | "gap");
+            let non_negative = name == "radius";
             let ok = v.is_finite() && (!must_be_positive || v > 0.0) && (!non_negative || v >= 0.0);
             if !ok {
                 let range = if must_be_positive {
