@@ -147,11 +147,32 @@ class Detector:
         """
         return self._inner.last_proximity
 
+    def proximity_faces(self) -> np.ndarray:
+        """Faces in the last call's proximity contacts, sorted, int64: the triangle of each
+        vertex-triangle contact and every face on an edge of an edge-edge contact.
+
+        What the viewer and the reports draw as "near"; empty before the first call
+        and when thickness is 0.
+        """
+        prox = self.last_proximity
+        if prox is None:
+            return np.zeros(0, dtype=np.int64)
+        n = np.int64(self.mesh.n_vertices)
+        edges, faces = self.mesh.edges, self.mesh.faces
+        touched = edges[prox["edge_edge"].ravel()]
+        keys = touched[:, 0] * n + touched[:, 1]
+        on_edge = np.zeros(len(faces), dtype=bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = faces[:, i], faces[:, j]
+            on_edge |= np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
+        return np.union1d(prox["vertex_triangle"][:, 1], np.flatnonzero(on_edge)).astype(np.int64)
+
     def __repr__(self) -> str:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None) -> np.ndarray:
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None) -> np.ndarray:
     """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
 
     Args:
@@ -172,7 +193,8 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: np
     return ids[self_intersections(vertices, all_faces[ids])]
 
 
-def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None) -> bool:
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                          subset: npt.ArrayLike | None = None) -> bool:
     """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
 
     Same answer as `len(self_intersections(...)) > 0`; the query runs in full
