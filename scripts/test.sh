@@ -12,7 +12,7 @@
 # enough: no GPU, no display.
 # Python packages: the selfcd package itself (pip install ., which builds the
 # Rust extension with maturin) and its test extras (pytest, playwright, pillow,
-# polyscope).
+# polyscope, usd-core, ray; the Ray test starts a small local head on 127.0.0.1).
 # No browser is downloaded: playwright drives Debian's /usr/bin/chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
