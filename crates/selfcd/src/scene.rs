@@ -42,6 +42,39 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
     (v, f)
 }
 
+/// A closed UV sphere of radius `r` about the origin, poles on the z axis:
+/// `rings >= 2` bands of latitude, `segments >= 3` of longitude, outward
+/// counter-clockwise triangles. The obstacle of the cloth tests and benchmarks.
+pub fn sphere(rings: usize, segments: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let (rings, segments) = (rings.max(2), segments.max(3));
+    let mut v = vec![[0.0, 0.0, r]];
+    for i in 1..rings {
+        let theta = PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            v.push([
+                r * theta.sin() * phi.cos(),
+                r * theta.sin() * phi.sin(),
+                r * theta.cos(),
+            ]);
+        }
+    }
+    v.push([0.0, 0.0, -r]);
+    let south = (v.len() - 1) as u32;
+    let at = |i: usize, j: usize| (1 + (i - 1) * segments + j % segments) as u32;
+    let mut f = Vec::with_capacity(2 * segments * (rings - 1));
+    for j in 0..segments {
+        f.push([0, at(1, j), at(1, j + 1)]);
+        f.push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
+        for i in 1..rings - 1 {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            f.push([a, b, c]);
+            f.push([a, c, d]);
+        }
+    }
+    (v, f)
+}
+
 /// Number of vertices per side of a square grid with about `triangles` triangles.
 pub fn grid_side_for(triangles: usize) -> usize {
     ((triangles as f64 / 2.0).sqrt().round() as usize + 1).max(2)

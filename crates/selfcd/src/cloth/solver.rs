@@ -105,6 +105,12 @@ impl Filter {
         self.z[i]
     }
 
+    /// Number of vertices the filter covers.
+    #[allow(clippy::len_without_is_empty)]
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
     /// Number of vertices with at least one constrained direction (pins included).
     pub fn constrained(&self) -> usize {
         self.rows.iter().filter(|r| r.count > 0).count()
