@@ -153,3 +153,20 @@ def test_detect_any_stops_at_the_first_intersecting_frame(animation: tuple[Path,
     assert [r["file"] for r in json.loads(out.stdout)["files"]] == [f"{path}[0]", f"{path}[1]"]
     out = run("detect", str(path), "--json")
     assert len(json.loads(out.stdout)["files"]) == 4
+
+
+def test_first_intersection_is_one_of_the_pairs_or_none(rng: np.random.Generator) -> None:
+    for amplitude in (0.0, 0.05, 0.2, 0.35):
+        _, F, P = noisy_grid(rng, 15, amplitude)
+        full = {tuple(p) for p in selfcd.self_intersections(P, F).tolist()}
+        first = selfcd.first_intersection(P, F)
+        assert (first is None) == (not full) and (first is None or first in full)
+        assert selfcd.first_intersection(P, F) == first  # the same pair every run
+        assert selfcd.has_self_intersection(P, F) == bool(full)
+        subset = np.arange(1, len(F), 2)
+        in_subset = {p for p in full if p[0] % 2 and p[1] % 2}
+        got = selfcd.first_intersection(P, F, subset=subset)
+        assert (got is None) == (not in_subset) and (got is None or got in in_subset)
+    assert selfcd.first_intersection(*selfcd.scenes.grid(6)) is None
+    with pytest.raises(ValueError):
+        selfcd.first_intersection(np.full((4, 3), np.nan), [[0, 1, 2], [1, 2, 3]])

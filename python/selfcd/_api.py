@@ -182,25 +182,53 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
             reported, by their ids in `faces`. Adjacency is still by shared
             vertex ids, so the answer is the full query's pairs among the subset.
     """
-    if subset is None:
-        mesh = Mesh(vertices, faces)
-        return _core.self_intersections(mesh._inner, _arrays.points(vertices))
-    all_faces = _arrays.faces(faces)
-    ids = _arrays.face_ids(subset, len(all_faces), "subset")
-    if len(ids) < 2:
-        Mesh(vertices, all_faces)  # the same validation as the full query
+    mesh, ids = _query_mesh(vertices, faces, subset)
+    if mesh is None:
         return np.zeros((0, 2), dtype=np.int64)
-    return ids[self_intersections(vertices, all_faces[ids])]
+    pairs = _core.self_intersections(mesh._inner, _arrays.points(vertices))
+    return pairs if ids is None else ids[pairs]
+
+
+def _query_mesh(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                subset: npt.ArrayLike | None) -> tuple[Mesh | None, np.ndarray | None]:
+    """The mesh a one-shot query runs on: the whole mesh, or the faces of `subset` over the
+    same vertices (so adjacency stays by shared vertex ids) with the subset's sorted ids.
+    The whole mesh is validated either way; None for a subset of fewer than two faces."""
+    whole = Mesh(vertices, faces)
+    if subset is None:
+        return whole, None
+    ids = _arrays.face_ids(subset, whole.n_faces, "subset")
+    if len(ids) < 2:
+        return None, ids
+    return Mesh(vertices, _arrays.faces(faces)[ids]), ids
 
 
 def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
                           subset: npt.ArrayLike | None = None) -> bool:
     """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
 
-    Same answer as `len(self_intersections(...)) > 0`; the query runs in full
-    (the traversal has no early exit yet).
+    Same answer as `len(self_intersections(...)) > 0`, but the traversal stops
+    at the first intersecting pair (see `first_intersection`).
     """
-    return len(self_intersections(vertices, faces, subset)) > 0
+    return first_intersection(vertices, faces, subset) is not None
+
+
+def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; exact.
+
+    The engine's traversal (boxes only, sequential) stops at the first pair it
+    finds; the pair is the same on every run. Both queries build the hierarchy
+    first, so the saving is the rest of the traversal (BENCHMARKS.md).
+    `subset` restricts the query as in `self_intersections` (ids in the
+    original numbering).
+    """
+    mesh, ids = _query_mesh(vertices, faces, subset)
+    pair = None if mesh is None else _core.first_intersection(mesh._inner, _arrays.points(vertices))
+    if pair is None:
+        return None
+    a, b = pair
+    return (a, b) if ids is None else (int(ids[a]), int(ids[b]))
 
 
 def continuous_impacts(
