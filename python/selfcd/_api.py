@@ -192,12 +192,32 @@ class Detector:
         """
         return self._inner.last_proximity
 
+    def proximity_faces(self) -> np.ndarray:
+        """Faces in the last call's proximity contacts, sorted, int64: the triangle of each
+        vertex-triangle contact and every face on an edge of an edge-edge contact.
+
+        What the viewer and the reports draw as "near"; empty before the first call
+        and when thickness is 0.
+        """
+        prox = self.last_proximity
+        if prox is None:
+            return np.zeros(0, dtype=np.int64)
+        n = np.int64(self.mesh.n_vertices)
+        edges, faces = self.mesh.edges, self.mesh.faces
+        touched = edges[prox["edge_edge"].ravel()]
+        keys = touched[:, 0] * n + touched[:, 1]
+        on_edge = np.zeros(len(faces), dtype=bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = faces[:, i], faces[:, j]
+            on_edge |= np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
+        return np.union1d(prox["vertex_triangle"][:, 1], np.flatnonzero(on_edge)).astype(np.int64)
+
     def __repr__(self) -> str:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
-                       weld: bool = False) -> np.ndarray:
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> np.ndarray:
     """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
 
     Args:
@@ -209,25 +229,53 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: np
         weld: merge vertices at exactly equal positions first (see `Mesh`);
             face indices are unchanged.
     """
-    if subset is None:
-        mesh = Mesh(vertices, faces, weld=weld)
-        return _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
-    all_faces = _arrays.faces(faces)
-    ids = _arrays.face_ids(subset, len(all_faces), "subset")
-    if len(ids) < 2:
-        Mesh(vertices, all_faces, weld=weld)  # the same validation as the full query
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    if mesh is None:
         return np.zeros((0, 2), dtype=np.int64)
-    return ids[self_intersections(vertices, all_faces[ids], weld=weld)]
+    pairs = _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    return pairs if ids is None else ids[pairs]
 
 
-def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
-                          weld: bool = False) -> bool:
+def _query_mesh(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None,
+                weld: bool) -> tuple[Mesh | None, np.ndarray | None]:
+    """The mesh a one-shot query runs on: the whole mesh, or the faces of `subset` over the
+    same vertices (so adjacency stays by shared vertex ids) with the subset's sorted ids.
+    The whole mesh is validated either way; None for a subset of fewer than two faces."""
+    whole = Mesh(vertices, faces, weld=weld)
+    if subset is None:
+        return whole, None
+    ids = _arrays.face_ids(subset, whole.n_faces, "subset")
+    if len(ids) < 2:
+        return None, ids
+    return Mesh(vertices, _arrays.faces(faces)[ids], weld=weld), ids
+
+
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                          subset: npt.ArrayLike | None = None, weld: bool = False) -> bool:
     """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
 
-    Same answer as `len(self_intersections(...)) > 0`; the query runs in full
-    (the traversal has no early exit yet).
+    Same answer as `len(self_intersections(...)) > 0`, but the traversal stops
+    at the first intersecting pair (see `first_intersection`).
     """
-    return len(self_intersections(vertices, faces, subset, weld)) > 0
+    return first_intersection(vertices, faces, subset, weld) is not None
+
+
+def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; exact.
+
+    The engine's traversal (boxes only, sequential) stops at the first pair it
+    finds; the pair is the same on every run. Both queries build the hierarchy
+    first, so the saving is the rest of the traversal (BENCHMARKS.md).
+    `subset` and `weld` are as in `self_intersections` (ids in the original
+    numbering).
+    """
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    pair = None if mesh is None else _core.first_intersection(mesh._inner, mesh._positions(vertices, "vertices"))
+    if pair is None:
+        return None
+    a, b = pair
+    return (a, b) if ids is None else (int(ids[a]), int(ids[b]))
 
 
 def continuous_impacts(

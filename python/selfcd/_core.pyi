@@ -72,6 +72,9 @@ class Detector:
 def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
     """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
 
+def first_intersection(mesh: Mesh, positions: np.ndarray) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; stops at the first found."""
+
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, separation: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `separation` during the linear step x0 -> x1, with times of impact."""
 

@@ -385,9 +385,12 @@ def _size(value: str) -> tuple[int, int]:
 @click.option("--size", default="1024x768", show_default=True, help="Window or screenshot size, WIDTHxHEIGHT.")
 @click.option("--with-panel", is_flag=True, help="Include the control panel in the screenshot.")
 @click.option("--paused", is_flag=True, help="Open the window paused (default: playing).")
+@click.option("--up", type=click.Choice(["x", "y", "z"]), default=None,
+              help="The axis that points up (default: z for scenes and .npz/.stl, the stage's for USD, "
+                   "y for OBJ, PLY, OFF and glTF).")
 def view(files: tuple[Path, ...], scene: str | None, resolution: int, method: str | None, response_method: str,
          thickness: float | None, bvh_depth: int | None, frames: int, screenshot: Path | None, size: str,
-         with_panel: bool, paused: bool) -> None:
+         with_panel: bool, paused: bool, up: str | None) -> None:
     """Watch a cloth scene live, or mesh FILES, in an interactive polyscope window.
 
     `selfcd view --scene center` simulates the paper's scene and shows the
@@ -411,10 +414,11 @@ def view(files: tuple[Path, ...], scene: str | None, resolution: int, method: st
     try:
         if scene is not None:
             source: viewer_mod.Source = viewer_mod.ClothSource(scene, resolution, response_method)
+            source.up = up or source.up
             default_method, default_thickness = viewer_mod.SENSOR_METHOD, source.sim.contact_distance
         else:
             seq, faces, labels = mesh_io.load_sequence(list(files))
-            source = viewer_mod.FramesSource(seq, faces, labels)
+            source = viewer_mod.FramesSource(seq, faces, labels, up or mesh_io.up_axis(files[0]))
             default_method, default_thickness = _api.DEFAULT_METHOD, 0.0
         v = viewer_mod.Viewer(source, method or default_method,
                               default_thickness if thickness is None else thickness)
