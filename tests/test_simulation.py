@@ -197,12 +197,19 @@ def test_rest_shape_differs_from_the_start() -> None:
     assert np.allclose(sim.positions, v * [1.2, 1.0, 1.0]) and np.allclose(sim.mesh.vertices, v)
 
 
-def test_split_body_takes_the_largest_closed_component() -> None:
-    sv, sf = selfcd.scenes.sphere(4, 6, 1.0)
-    cv, cf = _square(3, 2.0)
-    v, f = np.concatenate([cv, sv]), np.concatenate([cf, sf + len(cv)])
-    (gv, gf), (bv, bf) = selfcd.scenes.split_body(v, f)
-    assert np.array_equal(gv, cv) and np.array_equal(gf, cf) and np.array_equal(bv, sv) and np.array_equal(bf, sf)
+def test_split_body_keeps_the_largest_and_closed_components() -> None:
+    sv, sf = selfcd.scenes.sphere(4, 6, 1.0)  # closed: part of the body
+    bv, bf = _square(9, -2.0)  # the largest: the body, even though open
+    cv, cf = _square(3, 2.0)  # open and smaller: the garment
+    parts = [(bv, bf), (cv, cf), (sv, sf)]
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts])
+    v = np.concatenate([p[0] for p in parts])
+    f = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
+    (gv, gf), (body_v, body_f) = selfcd.scenes.split_body(v, f)
+    assert np.array_equal(gv, cv) and np.array_equal(gf, cf)
+    assert np.array_equal(body_v, np.concatenate([bv, sv])) and np.array_equal(body_f, np.concatenate([bf, sf + len(bv)]))
+    with pytest.raises(ValueError, match="no garment"):
+        selfcd.scenes.split_body(sv, sf)
 
 
 # ---------------------------------------------------------------- selfcd simulate --mesh

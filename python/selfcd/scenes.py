@@ -201,22 +201,23 @@ def components(faces: npt.ArrayLike, n_vertices: int) -> np.ndarray:
 def split_body(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> tuple[tuple[np.ndarray, np.ndarray],
                                                                           tuple[np.ndarray, np.ndarray]]:
     """Splits a garment-on-body mesh by connected components: the body is the
-    largest closed component (every edge in exactly two faces), the garment the
-    rest. Returns ((garment V, F), (body V, F)), each with its unused vertices dropped."""
+    largest component together with every closed one (every edge in exactly
+    two faces: head, eyes), the garment the other, open components (its panels).
+    Returns ((garment V, F), (body V, F)), each with its unused vertices dropped."""
     v, f = _arrays.points(vertices, "vertices"), _arrays.faces(faces)
     labels = components(f, len(v))
-    best, size = -1, 0
-    for c in range(labels.max() + 1):
+    sizes = np.bincount(labels)
+    body = np.zeros(len(sizes), dtype=bool)
+    body[np.argmax(sizes)] = True
+    for c in range(len(sizes)):
         fc = f[labels == c]
         e = np.sort(np.concatenate([fc[:, [0, 1]], fc[:, [1, 2]], fc[:, [2, 0]]]), axis=1)
-        _, counts = np.unique(e, axis=0, return_counts=True)
-        if np.all(counts == 2) and len(fc) > size:
-            best, size = c, len(fc)
-    if best < 0:
-        raise ValueError("no closed component: cannot tell the body from the garment")
+        body[c] |= bool(np.all(np.unique(e, axis=0, return_counts=True)[1] == 2))
+    if body.all():
+        raise ValueError("every component is closed or the largest: no garment to simulate")
 
     def part(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         used, inverse = np.unique(f[mask], return_inverse=True)
         return v[used], inverse.reshape(-1, 3).astype(np.int64)
 
-    return part(labels != best), part(labels == best)
+    return part(~body[labels]), part(body[labels])
