@@ -156,10 +156,34 @@ class Detector:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> np.ndarray:
-    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted."""
-    mesh = Mesh(vertices, faces)
-    return _core.self_intersections(mesh._inner, _arrays.points(vertices))
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None) -> np.ndarray:
+    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
+
+    Args:
+        vertices: (n, 3) positions.
+        faces: (m, 3) vertex indices.
+        subset: optional face indices; only pairs of two faces in the subset are
+            reported, by their ids in `faces`. Adjacency is still by shared
+            vertex ids, so the answer is the full query's pairs among the subset.
+    """
+    if subset is None:
+        mesh = Mesh(vertices, faces)
+        return _core.self_intersections(mesh._inner, _arrays.points(vertices))
+    all_faces = _arrays.faces(faces)
+    ids = _arrays.face_ids(subset, len(all_faces), "subset")
+    if len(ids) < 2:
+        Mesh(vertices, all_faces)  # the same validation as the full query
+        return np.zeros((0, 2), dtype=np.int64)
+    return ids[self_intersections(vertices, all_faces[ids])]
+
+
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None) -> bool:
+    """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
+
+    Same answer as `len(self_intersections(...)) > 0`; the query runs in full
+    (the traversal has no early exit yet).
+    """
+    return len(self_intersections(vertices, faces, subset)) > 0
 
 
 def continuous_impacts(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import _api, bench as bench_mod, demo as demo_mod, io as mesh_io
+from .check import DetectRun, check_frames
 
 
 class InputError(click.ClickException):
@@ -104,43 +106,119 @@ def _api_version() -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of text.")
 @click.option("--max-pairs", type=click.IntRange(0), default=10, show_default=True,
               help="Pairs listed per file in text output.")
-def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int) -> None:
-    """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, ... or .npz with V and F).
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also write REPORT/index.html (pairs per frame, 3D view, table) and REPORT/summary.json.")
+@click.option("--frame", type=click.IntRange(0), default=None,
+              help="Frame drawn in the report's 3D view (default: the one with the most pairs).")
+@click.option("--any", "stop_at_first", is_flag=True,
+              help="Stop at the first frame with an intersection (exit status 1).")
+def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int, report_dir: Path | None,
+           frame: int | None, stop_at_first: bool) -> None:
+    """Find self-intersecting triangle pairs in mesh FILES (OBJ, PLY, STL, OFF, glTF, .npz, USD).
 
     Several files are one animation sharing faces (the first frame is the rest
-    shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, is
-    an animation too. Exit status: 0 no intersection, 1 some intersection,
-    2 bad input.
+    shape); an .npz whose V is (frames, n, 3), as `selfcd simulate` writes, and
+    a USD mesh with time-sampled points are animations too. Exit status: 0 no
+    intersection, 1 some intersection, 2 bad input.
     """
+    bar = partial(tqdm, desc="detect", unit="frame", leave=False, delay=1.0, disable=None)
     try:
         frames, faces, labels = mesh_io.load_sequence(list(files))
-        det = _api.Detector(_api.Mesh(frames[0], faces), method)
+        run = check_frames(frames, faces, labels, method, stop_at_first, wrap=bar)
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
-    records = []
-    for label, positions in zip(tqdm(labels, desc="detect", leave=False, delay=1.0, disable=None), frames):
-        try:
-            pairs = det.detect(positions)
-        except (ValueError, TypeError) as exc:
-            raise InputError(f"{label}: {exc}") from None
-        records.append({"file": label, "count": int(len(pairs)), "pairs": pairs.tolist(),
-                        "stats": det.last_stats})
-    any_hit = any(r["count"] for r in records)
+    run.up = mesh_io.up_axis(files[0])
+    records = [{"file": label, "count": int(len(p)), "pairs": p, "stats": s}
+               for label, p, s in zip(run.labels, run.pairs, run.stats)]
+    any_hit = bool(run.counts().any())
+    if report_dir is not None:
+        _write_detect_report(run, report_dir, frame)
     if as_json:
+        for r in records:
+            r["pairs"] = r["pairs"].tolist()
         click.echo(json.dumps({"method": method, "intersecting": any_hit, "files": records}, indent=2))
     else:
         for r in records:
             _print_record(r, max_pairs)
+        if report_dir is not None:
+            click.echo(f"Report: {(report_dir / 'index.html').resolve()}")
     sys.exit(1 if any_hit else 0)
+
+
+def _write_detect_report(run: DetectRun, out_dir: Path, frame: int | None) -> None:
+    """Writes the detect report for the frames checked (all, or up to the first hit with --any)."""
+    from .detect_report import write_detect_report  # plotly is imported only for a report
+
+    try:
+        write_detect_report(run, out_dir, frame, {"version": _api_version()})
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--frame") from None
+    except OSError as exc:
+        raise click.ClickException(f"cannot write the report to {out_dir}: {exc}") from None
 
 
 def _print_record(r: dict[str, Any], max_pairs: int) -> None:
     ms = r["stats"]["total_time"] * 1e3
     click.echo(f"{r['file']}: {r['count']} intersecting triangle pairs ({ms:.2f} ms)")
-    shown = r["pairs"][:max_pairs]
+    shown = r["pairs"][:max_pairs].tolist()
     if shown:
         more = f" ... and {r['count'] - len(shown)} more" if r["count"] > len(shown) else ""
         click.echo("  " + " ".join(f"({a},{b})" for a, b in shown) + more)
+
+
+# ---------------------------------------------------------------- batch
+
+
+@main.command()
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Folder for results.csv and index.html.")
+@click.option("--method", type=_method_choice(), default=_api.DEFAULT_METHOD, show_default=True)
+@click.option("--workers", type=click.IntRange(1, 4096), default=None,
+              help="Processes (or, with --ray local, Ray CPUs); default: every CPU.")
+@click.option("--ray", "ray_address", default=None, metavar="local|ADDRESS",
+              help='Run on Ray: "local" starts it on this machine, ADDRESS (host:port) joins a cluster. '
+                   'Needs pip install "selfcd[ray]".')
+def batch(inputs: tuple[Path, ...], out_dir: Path, method: str, workers: int | None, ray_address: str | None) -> None:
+    """Check many meshes and animations; write OUT/results.csv and OUT/index.html.
+
+    Each INPUT is a mesh file, an animation file (.npz, USD) or a directory of
+    frame files (one animation, in natural order). results.csv has one row per
+    input: input, frames, triangles, frames_with_intersections, pairs_total,
+    pairs_max, seconds, and error (why a bad input could not be checked; the
+    others go on). Exit status: 0 nothing intersects, 1 some input
+    self-intersects, 2 some input could not be checked.
+    """
+    import os
+
+    from . import batch as batch_mod
+
+    paths = [str(p) for p in inputs]
+    n_workers = workers or min(os.cpu_count() or 1, len(paths))
+    t0 = time.perf_counter()
+    with _bar(len(paths), "batch") as bar:
+        update = lambda done: bar.update(done - bar.n)  # noqa: E731
+        try:
+            if ray_address is None:
+                rows = batch_mod.run_local(paths, method, n_workers, update)
+            else:
+                rows = batch_mod.run_ray(paths, method, ray_address, workers, update)
+        except RuntimeError as exc:
+            raise click.ClickException(str(exc)) from None
+    runner = f"{n_workers} local process(es)" if ray_address is None else f"Ray ({ray_address})"
+    try:
+        batch_mod.write_results(rows, out_dir, {"method": method, "runner": runner,
+                                                "seconds": time.perf_counter() - t0})
+    except OSError as exc:
+        raise click.ClickException(f"cannot write results to {out_dir}: {exc}") from None
+    bad = [r for r in rows if r["error"]]
+    hit = [r for r in rows if not r["error"] and r["pairs_total"]]
+    for r in rows:
+        click.echo(f"{r['input']}: " + (f"error: {r['error']}" if r["error"] else
+                                        f"{r['frames']} frame(s), {r['frames_with_intersections']} with "
+                                        f"intersections, at most {r['pairs_max']} pairs"))
+    click.echo(f"Results: {(out_dir / 'results.csv').resolve()}  index: {(out_dir / 'index.html').resolve()}")
+    sys.exit(2 if bad else 1 if hit else 0)
 
 
 # ---------------------------------------------------------------- simulate

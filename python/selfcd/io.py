@@ -1,11 +1,14 @@
 """Reading meshes and animations: OBJ, PLY and the other formats trimesh reads,
-and .npz archives holding arrays V (vertices, (n,3) or (frames,n,3)) and F (faces)."""
+.npz archives holding arrays V (vertices, (n,3) or (frames,n,3)) and F (faces),
+and USD (a mesh prim with time-sampled points is an animation; see `selfcd.usd`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
+
+from .usd import USD_SUFFIXES, UsdError
 
 
 class MeshFileError(ValueError):
@@ -40,7 +43,18 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise MeshFileError(f"{path}: no such file")
     if path.suffix.lower() == ".npz":
         return _load_npz(path)
+    if path.suffix.lower() in USD_SUFFIXES:
+        return _load_usd(path)
     return _load_trimesh(path)
+
+
+def _load_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    from .usd import read_usd
+
+    try:
+        return read_usd(path)
+    except UsdError as exc:
+        raise MeshFileError(str(exc)) from None
 
 
 def load_sequence(paths: list[str | Path]) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -75,3 +89,21 @@ def save_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in np.asarray(vertices, dtype=np.float64)]
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.asarray(faces, dtype=np.int64)]
     Path(path).write_text("\n".join(lines) + "\n")
+
+
+#: Up axis by file suffix: glTF is Y-up by its specification and OBJ, PLY and
+#: OFF exports from DCC tools are Y-up by convention; STL comes from CAD (Z-up);
+#: .npz is what `selfcd simulate` writes (Z-up). USD files state their own.
+UP_BY_SUFFIX = {".obj": "y", ".ply": "y", ".off": "y", ".glb": "y", ".gltf": "y", ".stl": "z", ".npz": "z"}
+
+
+def up_axis(path: str | Path) -> str:
+    """The up axis ("x", "y" or "z") a file's positions are meant to be viewed with."""
+    path = Path(path)
+    if path.is_dir():
+        return "z"
+    if path.suffix.lower() in USD_SUFFIXES:
+        from .usd import stage_up_axis
+
+        return stage_up_axis(path)
+    return UP_BY_SUFFIX.get(path.suffix.lower(), "y")

@@ -26,9 +26,6 @@ pub enum Error {
     /// Two triangles have the same three vertices.
     #[error("triangles {first} and {second} have the same vertices")]
     DuplicateTriangle { first: usize, second: usize },
-    /// A triangle has zero area in the rest shape (its corners are collinear).
-    #[error("triangle {triangle} is degenerate in the rest shape (its corners are collinear)")]
-    DegenerateTriangle { triangle: usize },
     /// A positions array does not match the mesh.
     #[error("positions have {got} vertices, the mesh has {expected}")]
     PositionsLength { expected: usize, got: usize },
@@ -45,9 +42,17 @@ pub type Result<T> = std::result::Result<T, Error>;
 
 /// Looks `s` up among `all` by `name`; the error lists the valid names.
 /// One parser for every enum chosen by name (methods, scenes, states).
-pub fn parse_name<T: Copy>(s: &str, all: &[T], name: impl Fn(T) -> &'static str, what: &str) -> Result<T> {
+pub fn parse_name<T: Copy>(
+    s: &str,
+    all: &[T],
+    name: impl Fn(T) -> &'static str,
+    what: &str,
+) -> Result<T> {
     all.iter().copied().find(|&x| name(x) == s).ok_or_else(|| {
         let names: Vec<_> = all.iter().map(|&x| name(x)).collect();
-        Error::InvalidParameter(format!("unknown {what} {s:?}; expected one of {}", names.join(", ")))
+        Error::InvalidParameter(format!(
+            "unknown {what} {s:?}; expected one of {}",
+            names.join(", ")
+        ))
     })
 }

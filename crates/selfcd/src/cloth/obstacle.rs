@@ -202,6 +202,6 @@ mod tests {
         assert_eq!(o.positions_at(0.25)[1], DVec3::new(1.0, 0.0, 1.0));
         assert_eq!(o.positions_at(7.0)[2], DVec3::new(0.0, 1.0, 2.0));
         assert!(Obstacle::animated(vec![], tri.clone(), 1.0).is_err());
-        assert!(Obstacle::animated(vec![vec![[0.0; 3]; 3]], tri, 1.0).is_err());
+        assert!(Obstacle::animated(vec![vec![[f64::NAN; 3]; 3]], tri, 1.0).is_err());
     }
 }

@@ -51,10 +51,7 @@ fn all_pairs<V: LeafVisitor>(
                     }
                 }
                 tests += 1;
-                let (a, b) = (&boxes[i], &boxes[j]);
-                let apart =
-                    (a.min - b.max).max_element() > gap || (b.min - a.max).max_element() > gap;
-                if !apart {
+                if boxes[i].within(&boxes[j], gap) {
                     visitor.visit(i as u32, j as u32, adj, &mut out);
                 }
             }

@@ -64,7 +64,8 @@ impl Method {
         }
     }
 
-    /// True when the method can miss contacts by design.
+    /// True when the method never misses a contact (false for the methods
+    /// that can miss contacts by design: `bvh-cones`, `sensor-gated`).
     pub fn is_conservative(self) -> bool {
         !matches!(self, Method::BvhCones | Method::SensorGated)
     }

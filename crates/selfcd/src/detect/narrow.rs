@@ -1,13 +1,15 @@
 //! Narrow phase: what is tested on each candidate triangle pair.
 //!
-//! - [`Intersect`]: exact closed triangle-triangle test, non-adjacent pairs only.
+//! - [`Intersect`]: exact closed triangle-triangle test behind a floating-point
+//!   filter, any finite scale, non-adjacent pairs only.
 //! - [`Proximity`]: vertex-triangle and edge-edge pairs closer than a thickness
 //!   `d`, skipping elements that share a vertex.
 
 use crate::bvh::traverse::LeafVisitor;
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
-use crate::geom::tri_tri::triangles_intersect;
+use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
+use crate::stats::Counters;
 use glam::DVec3;
 
 /// Exact intersection test of two triangles of one mesh.
@@ -23,11 +25,18 @@ impl LeafVisitor for Intersect<'_> {
     const SKIP_ADJACENT: bool = true;
 
     #[inline]
-    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<[u32; 2]>) {
+    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<[u32; 2]>) {
+        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
+    }
+
+    #[inline]
+    fn visit_counted(&self, a: u32, b: u32, _adj: bool, out: &mut Vec<[u32; 2]>, c: &mut Counters) {
         let ta = self.mesh.corners(self.positions, a as usize);
         let tb = self.mesh.corners(self.positions, b as usize);
-        if triangles_intersect(&ta, &tb) {
-            out.push([a, b]);
+        match triangles_intersect_filtered(&ta, &tb) {
+            Decision::FilterApart => c.filter_decisions += 1,
+            d if d.intersect() => out.push([a, b]),
+            _ => {}
         }
     }
 }
@@ -162,8 +171,14 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
             }
         }
     }
-    for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
-        for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
+    for &ea in topo.tri_edges[a as usize]
+        .iter()
+        .filter(|&&e| owns_edge(a, e))
+    {
+        for &eb in topo.tri_edges[b as usize]
+            .iter()
+            .filter(|&&e| owns_edge(b, e))
+        {
             f(ElementPair::EdgeEdge(ea, eb));
         }
     }

@@ -60,7 +60,8 @@ pub struct Relaxation {
 
 impl Sensor {
     /// A sensor on `mesh` with particles placed by farthest-point sampling.
-    /// Errors: invalid parameters, more particles than triangles, or a curved rest shape.
+    /// Errors: invalid parameters, more particles than triangles, a curved rest
+    /// shape, or a mean edge length of zero.
     pub fn new(mesh: Arc<Mesh>, params: SensorParams) -> Result<Sensor> {
         if params.count > mesh.n_triangles() {
             return Err(Error::InvalidParameter(format!(
@@ -84,6 +85,12 @@ impl Sensor {
         check_flat(&mesh)?;
         points.iter().try_for_each(|p| p.check(&mesh))?;
         let unit = mesh.mean_edge_length();
+        if !(unit > 0.0) {
+            // A mesh of zero-area triangles all at one point: no length unit.
+            return Err(Error::InvalidParameter(
+                "the particle sensor needs a mesh with a positive mean edge length".into(),
+            ));
+        }
         Ok(Sensor {
             mesh,
             params,
