@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import selfcd
+import selfcd.usd
 
 
 def test_paper_scenes_are_listed_in_the_papers_order() -> None:
@@ -227,7 +228,8 @@ def test_simulate_mesh_with_obstacle_writes_npz_obj_and_stats(tmp_path) -> None:
     (out / "obj").mkdir(parents=True)
     (out / "obj" / "cloth_00099.obj").write_text("stale")
     r = _cli("simulate", "--mesh", str(tmp_path / "cloth.obj"), "--obstacle", str(tmp_path / "ball.obj"),
-             "--pin", "box:-1,-1,-1,-0.4,-0.4,1", "--frames", "6", "--every", "5", "--obj", "--out", str(out))
+             "--pin", "box:-1,-1,-1,-0.4,-0.4,1", "--frames", "6", "--every", "5", "--obj", "--usd", "drape.usda",
+             "--out", str(out))
     assert r.returncode == 0, r.stderr
     data = np.load(out / "frames.npz")
     assert data["V"].shape == (6, 49, 3) and data["OV"].shape[0] == 6 and len(data["OF"]) == 8 * 16 * 2 - 2 * 16
@@ -236,6 +238,9 @@ def test_simulate_mesh_with_obstacle_writes_npz_obj_and_stats(tmp_path) -> None:
                                                                for i in range(6)]
     stats = json.loads((out / "stats.json").read_text())
     assert stats["summary"]["steps"] == 25 and stats["summary"]["max_intersections"] == 0
+    usd_v, usd_f = selfcd.usd.read_usd(out / "drape.usda")
+    assert usd_v.shape == (6, 49, 3) and np.allclose(usd_v, data["V"], atol=1e-6) and np.array_equal(usd_f, f)
+    assert selfcd.usd.read_usd(out / "drape_obstacles.usda")[0].shape == data["OV"].shape
     assert {"obstacle_time", "obstacle_contacts", "solve_time"} <= set(stats["steps"])
 
 

@@ -254,18 +254,23 @@ def batch(inputs: tuple[Path, ...], out_dir: Path, method: str, workers: int | N
 @click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None, help="Time step (s); default 1/60.")
 @click.option("--no-self-collision", is_flag=True, help="Let the cloth pass through itself.")
 @click.option("--obj", "write_obj", is_flag=True, help="Also write every frame as OBJ files in OUT/obj/.")
+@click.option("--usd", "usd_name", default=None, metavar="NAME",
+              help="Also write the frames as USD (time-sampled points) to OUT/NAME (.usd, .usda or .usdc), "
+                   "obstacles to OUT/NAME_obstacles (needs usd-core; up axis y or z).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output folder (default: ./selfcd-sim-SCENE or ./selfcd-sim-MESH).")
 def simulate(scene: str | None, mesh_file: Path | None, rest_file: Path | None, pin_specs: tuple[str, ...],
              obstacle_paths: tuple[Path, ...], up: str, material: str, friction: float | None,
              obstacle_friction: float | None, frames: int, every: int, resolution: int, method: str,
-             dt: float | None, no_self_collision: bool, write_obj: bool, out_dir: Path | None) -> None:
+             dt: float | None, no_self_collision: bool, write_obj: bool, usd_name: str | None,
+             out_dir: Path | None) -> None:
     """Simulate a cloth: one of the paper's scenes, or any mesh with pins and obstacles.
 
     Writes OUT/frames.npz (V: frames x vertices x 3, F: faces, time, pinned;
     with obstacles also OV: frames x obstacle vertices x 3 and OF), OUT/stats.json
     (per-step solver, contact and detection stats) and, with --obj,
-    OUT/obj/cloth_NNNNN.obj (and obstacle_NNNNN.obj). Files are written as the
+    OUT/obj/cloth_NNNNN.obj (and obstacle_NNNNN.obj), with --usd a USD
+    animation at the frame rate. Files are written as the
     run goes: an interrupted run keeps the frames it computed. The frames can
     be checked with `selfcd detect OUT/frames.npz`.
     """
@@ -292,7 +297,11 @@ def simulate(scene: str | None, mesh_file: Path | None, rest_file: Path | None, 
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
     name = scene or mesh_file.name
-    recording = _Recording(out_dir, sim, write_obj)
+    try:
+        usd = None if usd_name is None else _usd_writers(out_dir / usd_name, sim, 1.0 / (sim.dt * every), up)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    recording = _Recording(out_dir, sim, write_obj, usd)
     steps = (frames - 1) * every
     try:
         with _bar(steps, f"{name}: simulate") as bar:
@@ -312,6 +321,16 @@ def simulate(scene: str | None, mesh_file: Path | None, rest_file: Path | None, 
                f"obstacles {summary['mean_obstacle_ms']:.2f} ms); steps with contacts "
                f"{summary['steps_with_contacts']}; intersections left {summary['max_intersections']}")
     click.echo(f"  frames: {out_dir / 'frames.npz'}  stats: {out_dir / 'stats.json'}")
+
+
+def _usd_writers(path: Path, sim: _api.Simulation, fps: float, up: str) -> list[Any]:
+    """USD writers for the cloth at `path` and, with obstacles, for them next to it; UsdError (a ValueError) if not."""
+    from .usd import UsdWriter
+
+    writers = [UsdWriter(path, sim.mesh.faces, fps, up)]
+    if len(sim.obstacle_faces):
+        writers.append(UsdWriter(path.with_name(f"{path.stem}_obstacles{path.suffix}"), sim.obstacle_faces, fps, up))
+    return writers
 
 
 def _prepare_output(out_dir: Path, write_obj: bool) -> None:
@@ -340,8 +359,8 @@ class _Recording:
 
     SAVE_EVERY_S = 5.0
 
-    def __init__(self, out_dir: Path, sim: _api.Simulation, write_obj: bool) -> None:
-        self.out_dir, self.sim, self.write_obj = out_dir, sim, write_obj
+    def __init__(self, out_dir: Path, sim: _api.Simulation, write_obj: bool, usd: list[Any] | None = None) -> None:
+        self.out_dir, self.sim, self.write_obj, self.usd = out_dir, sim, write_obj, usd or []
         self.frames: list[np.ndarray] = []
         self.obstacles: list[np.ndarray] = []
         self.times: list[float] = []
@@ -360,6 +379,8 @@ class _Recording:
             mesh_io.save_obj(self.out_dir / "obj" / f"cloth_{k:05d}.obj", positions, self.sim.mesh.faces)
             if len(ov):
                 mesh_io.save_obj(self.out_dir / "obj" / f"obstacle_{k:05d}.obj", ov, self.sim.obstacle_faces)
+        for writer, p in zip(self.usd, (positions, ov)):
+            writer.write_frame(p)
 
     def add(self, positions: np.ndarray, stats: dict[str, Any]) -> None:
         self._frame(positions)
@@ -370,6 +391,8 @@ class _Recording:
     def save(self) -> dict[str, Any]:
         """Writes frames.npz and stats.json for what was recorded; returns the summary."""
         self.saved_at = time.monotonic()
+        for writer in self.usd:
+            writer.save()
         arrays = {"V": np.stack(self.frames), "F": self.sim.mesh.faces, "time": np.array(self.times),
                   "pinned": self.sim.pinned}
         if len(self.obstacles[0]):

@@ -74,7 +74,7 @@ pub fn leaf_pairs(cloth: &Bvh, obstacle: &Bvh, gap: f64) -> Vec<[u32; 2]> {
     let mut stack = vec![(cloth.root(), obstacle.root())];
     while let Some((a, b)) = stack.pop() {
         let (ba, bb) = (&cloth.boxes[a as usize], &obstacle.boxes[b as usize]);
-        if !ba.inflate(gap).overlaps(bb) {
+        if !ba.within(bb, gap) {
             continue;
         }
         match (cloth.is_leaf(a), obstacle.is_leaf(b)) {
