@@ -24,6 +24,11 @@ def sensor_options() -> list[str]:
     return list(_core.sensor_options())
 
 
+def materials() -> list[str]:
+    """Names of the cloth material presets; the first is the default."""
+    return list(_core.materials())
+
+
 def non_conservative_methods() -> list[str]:
     """Names of the methods that can miss contacts by design (their misses are measured)."""
     return list(_core.non_conservative_methods())
@@ -342,8 +347,9 @@ def paper_scenes() -> list[str]:
 
 
 class Simulation:
-    """One of the paper's cloth scenes in motion (mass-spring cloth, implicit Euler,
-    self-collision response driven by a detection method).
+    """A cloth in motion (mass-spring cloth, implicit Euler, self- and obstacle
+    collision response driven by a detection method): one of the paper's scenes,
+    or any mesh with `Simulation.from_mesh`.
 
     Args:
         scene: "two-corners", "corner" or "center" (see `paper_scenes()`).
@@ -364,6 +370,52 @@ class Simulation:
         self._inner = _core.Simulation(scene, resolution, method, None if dt is None else _arrays.number(dt, "dt"),
                                        _arrays.flag(self_collision, "self_collision"))
         self.mesh = Mesh._wrap(self._inner.mesh)
+
+    @classmethod
+    def from_mesh(cls, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, rest: npt.ArrayLike | None = None,
+                  pins: Any = (), obstacles: Sequence[Any] = (), up: str = "z", material: str = "cotton",
+                  method: str = DEFAULT_METHOD, dt: float | None = None, frame_time: float | None = None,
+                  self_collision: bool = True, friction: float | None = None,
+                  obstacle_friction: float | None = None) -> "Simulation":
+        """A cloth over any triangle mesh, starting at `vertices`.
+
+        Args:
+            rest: rest shape with the same triangles (say, a garment's flat pattern); default `vertices`.
+            pins: vertices held fixed: pin specs ("top:FRACTION", "indices:FILE", "box:x0,y0,z0,x1,y1,z1"),
+                vertex ids, or a boolean mask (see `selfcd.scenes.pins`); several are combined.
+            obstacles: meshes the cloth collides with: files, directories of frame files, (V, F)
+                pairs, or (frames (k, n, 3), F) animations (see `selfcd.scenes.obstacle`).
+            up: the up axis, "x", "y" or "z": gravity points down it.
+            material: a preset of `selfcd.materials()` (cotton, silk, denim).
+            dt: time step (s), default 1/60.
+            frame_time: seconds per obstacle keyframe (default: dt).
+            friction, obstacle_friction: Coulomb coefficients of cloth-cloth and
+                cloth-obstacle contacts (default 0.3 and 0.5).
+        """
+        from . import scenes
+
+        v = _arrays.points(vertices, "vertices")
+        f = _arrays.faces(faces)
+        r = None if rest is None else _arrays.points(rest, "rest", len(v))
+        ids = scenes.pins(v, pins, up)
+        obs = [scenes.obstacle(o) for o in obstacles]
+        step = 1.0 / 60.0 if dt is None else float(dt)
+        self = cls.__new__(cls)
+        self._inner = _core.Simulation.from_mesh(
+            v, f, r, ids, obs, step if frame_time is None else float(frame_time), scenes.gravity(up), material,
+            method, dt, bool(self_collision), friction, obstacle_friction)
+        self.mesh = Mesh._wrap(self._inner.mesh)
+        return self
+
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """Positions of every obstacle (merged in order) at the current time, (n, 3); empty without obstacles."""
+        return self._inner.obstacle_positions
+
+    @property
+    def obstacle_faces(self) -> np.ndarray:
+        """Faces of the merged obstacle mesh, (m, 3)."""
+        return self._inner.obstacle_faces
 
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats ("detection" holds the detector's FrameStats)."""
@@ -400,13 +452,13 @@ class Simulation:
         return self._inner.pinned
 
     @property
-    def scene(self) -> str:
-        """The scene's name."""
+    def scene(self) -> str | None:
+        """The scene's name (None for `from_mesh`)."""
         return self._inner.scene
 
     @property
-    def resolution(self) -> int:
-        """Vertices per side."""
+    def resolution(self) -> int | None:
+        """Vertices per side (None for `from_mesh`)."""
         return self._inner.resolution
 
     @property
@@ -444,4 +496,6 @@ class Simulation:
         return self._inner.energy()
 
     def __repr__(self) -> str:
+        if self.scene is None:
+            return f"selfcd.Simulation.from_mesh({self.mesh.n_vertices} vertices, method={self.method!r})"
         return f"selfcd.Simulation(scene={self.scene!r}, resolution={self.resolution}, method={self.method!r})"

@@ -52,6 +52,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mesh::PyMesh>()?;
     m.add_class::<cloth::PySimulation>()?;
     m.add_function(wrap_pyfunction!(cloth::paper_scenes, m)?)?;
+    m.add_function(wrap_pyfunction!(cloth::materials, m)?)?;
     m.add_class::<detector::PyDetector>()?;
     m.add_class::<inspect::PyHierarchy>()?;
     m.add_function(wrap_pyfunction!(inspect::sensor_defaults, m)?)?;
