@@ -496,7 +496,7 @@ def load_average() -> str:
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--inputs", default=",".join(INPUTS),
                     help=f"comma-separated inputs (default: all of {', '.join(INPUTS)})")
