@@ -19,8 +19,9 @@ that does not import is reported as unavailable and selfcd is measured alone.
 Every timing is the median over `--repeat` runs after a warm-up (warp's kernel
 JIT happens there); peers and selfcd alternate inside each run so that load
 on a shared machine hits them alike. Pair counts are checked against selfcd's
-exact answer and disagreements are printed (warp works in float32 and is not
-exact). Times are wall-clock, so only ratios taken in one run mean much.
+exact answer and disagreements are printed as -missed +spurious pairs (warp
+works in float32 and is not exact). Times are wall-clock, so only ratios taken
+in one run mean much.
 
     PYTHONPATH=python python3 scripts/bench_peers.py --repeat 7 --json peers.json
 """
@@ -159,11 +160,17 @@ def non_adjacent(pairs: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return pairs[~shared]
 
 
-def agreement(exact: set, other: set) -> str:
-    """'=' when the sets agree, else the peer's misses and spurious pairs."""
-    if exact == other:
+def agreement(exact: set, other: set) -> list[int]:
+    """[missed, spurious]: exact pairs the other set lacks, and pairs it has beyond them."""
+    return [len(exact - other), len(other - exact)]
+
+
+def show_agreement(frames: list[list[int]]) -> str:
+    """'=' when every frame agrees, else the range over frames of missed (-) and spurious (+) pairs."""
+    if not any(m or s for m, s in frames):
         return "="
-    return f"-{len(exact - other)} +{len(other - exact)}"
+    span = [f"{min(v)}" if min(v) == max(v) else f"{min(v)}..{max(v)}" for v in zip(*frames)]
+    return f"-{span[0]} +{span[1]}"
 
 
 class Warp:
@@ -294,7 +301,7 @@ def per_frame(inp: Input, reps: int, warp: Warp | None, tick: Callable[[str], No
     for k in runners:
         row[f"{k}_ms"] = med_ms(times[k])
         row[f"{k}_pairs"] = [len(p) for p in last[k]]
-        row[f"{k}_vs_exact"] = sorted({agreement(e, pair_set(p)) for e, p in zip(exact, last[k])})
+        row[f"{k}_vs_exact"] = [agreement(e, pair_set(p)) for e, p in zip(exact, last[k])]
     return row
 
 
@@ -432,7 +439,8 @@ def frame_table(rows: list[dict[str, Any]]) -> str:
         body.append([r["input"], str(r["triangles"]), ms(r[f"{selfcd.DEFAULT_METHOD}_ms"]), ms(r["bvh_ms"]),
                      ms(r["bvh-cones_ms"]), ms(w), ratio(r[f"{selfcd.DEFAULT_METHOD}_ms"], w),
                      ratio(r["bvh_ms"], w), ratio(r["bvh-cones_ms"], w), ",".join(map(str, r["exact_pairs"])),
-                     " ".join(r["bvh-cones_vs_exact"]), " ".join(r.get("warp_vs_exact", ["-"]))])
+                     show_agreement(r["bvh-cones_vs_exact"]),
+                     show_agreement(r["warp_vs_exact"]) if "warp_vs_exact" in r else "-"])
     return table(head, body)
 
 
@@ -443,8 +451,8 @@ def oneshot_table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         li, w = r.get("libigl_ms", float("nan")), r.get("warp_ms", float("nan"))
         body.append([r["input"], str(r["triangles"]), ms(r["selfcd_ms"]), ms(li), ms(w), ratio(r["selfcd_ms"], li),
-                     ratio(r["selfcd_ms"], w), str(r["exact_pairs"]), r.get("libigl_vs_exact", "-"),
-                     r.get("warp_vs_exact", "-")])
+                     ratio(r["selfcd_ms"], w), str(r["exact_pairs"]),
+                     *(show_agreement([r[k]]) if k in r else "-" for k in ("libigl_vs_exact", "warp_vs_exact"))])
     return table(head, body)
 
 
@@ -497,7 +505,7 @@ def load_average() -> str:
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--inputs", default=",".join(INPUTS),
                     help=f"comma-separated inputs (default: all of {', '.join(INPUTS)})")
@@ -538,7 +546,7 @@ def main(argv: list[str] | None = None) -> int:
     warp = Warp(wp) if wp is not None else None
     calls = {"per_frame": len(METHODS) + (warp is not None), "one_shot": 1 + (igl is not None) + (warp is not None),
              "proximity": 2 + (ipctk is not None), "continuous": 1 + (ipctk is not None)}
-    total = len(args.inputs) * (args.repeat + 1) * sum(calls[t] for t in args.tables)
+    total = len(args.inputs) * (1 + (args.repeat + 1) * sum(calls[t] for t in args.tables))  # 1: loading
     bar = Progress(total, args.no_progress)
     status = 0
     try:

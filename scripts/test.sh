@@ -12,7 +12,8 @@
 # enough: no GPU, no display.
 # Python packages: the selfcd package itself (pip install ., which builds the
 # Rust extension with maturin) and its test extras (pytest, playwright, pillow,
-# polyscope, ..., and ruff and mypy for the gates).
+# polyscope, usd-core, ray (the Ray test starts a small local head on 127.0.0.1),
+# and ruff and mypy for the gates).
 # Gates, run after the tests: cargo fmt --check, cargo clippy -D warnings,
 # ruff (configured in pyproject.toml) and mypy's stubtest of selfcd._core
 # against python/selfcd/_core.pyi.

@@ -152,3 +152,56 @@ def test_detect_any_stops_at_the_first_intersecting_frame(animation: tuple[Path,
     assert [r["file"] for r in json.loads(out.stdout)["files"]] == [f"{path}[0]", f"{path}[1]"]
     out = run("detect", str(path), "--json")
     assert len(json.loads(out.stdout)["files"]) == 4
+
+
+def test_first_intersection_is_one_of_the_pairs_or_none(rng: np.random.Generator) -> None:
+    for amplitude in (0.0, 0.05, 0.2, 0.35):
+        _, F, P = noisy_grid(rng, 15, amplitude)
+        full = {tuple(p) for p in selfcd.self_intersections(P, F).tolist()}
+        first = selfcd.first_intersection(P, F)
+        assert (first is None) == (not full) and (first is None or first in full)
+        assert selfcd.first_intersection(P, F) == first  # the same pair every run
+        assert selfcd.has_self_intersection(P, F) == bool(full)
+        subset = np.arange(1, len(F), 2)
+        in_subset = {p for p in full if p[0] % 2 and p[1] % 2}
+        got = selfcd.first_intersection(P, F, subset=subset)
+        assert (got is None) == (not in_subset) and (got is None or got in in_subset)
+    assert selfcd.first_intersection(*selfcd.scenes.grid(6)) is None
+    with pytest.raises(ValueError):
+        selfcd.first_intersection(np.full((4, 3), np.nan), [[0, 1, 2], [1, 2, 3]])
+
+
+def test_report_renders_in_chromium(animation: tuple[Path, np.ndarray, np.ndarray], tmp_path: Path) -> None:
+    """The detect report in headless Chromium: no errors, both charts drawn, the 3D view shows
+    red intersecting triangles and the segment trace holds the drawn segments."""
+    from PIL import Image
+    from playwright.sync_api import sync_playwright
+
+    from test_report_browser import CHROMIUM, FLAGS
+
+    path, frames, F = animation
+    assert run("detect", str(path), "--report", str(tmp_path / "rep")).returncode == 1
+    with sync_playwright() as p:
+        browser = p.chromium.launch_persistent_context(str(tmp_path / "profile"), executable_path=CHROMIUM,
+                                                       headless=True, args=FLAGS,
+                                                       viewport={"width": 1280, "height": 1000})
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((tmp_path / "rep" / "index.html").as_uri())
+        page.wait_for_function("() => document.querySelectorAll('.js-plotly-plot').length == 2", timeout=60000)
+        names = page.eval_on_selector("#frame", "el => el.data.map(t => t.name)")
+        points = page.eval_on_selector("#frame", "el => el._fullData[1].x.length")
+        view = page.locator("#frame")
+        view.scroll_into_view_if_needed()
+        page.wait_for_timeout(1000)
+        shot = tmp_path / "frame.png"
+        view.screenshot(path=str(shot))
+        browser.close()
+    assert errors == []
+    assert names == ["mesh", "intersection"]
+    pairs = len(selfcd.self_intersections(frames[2], F))
+    assert 0.9 * pairs * 3 <= points <= pairs * 3  # two ends and a gap per drawn segment
+    rgb = np.asarray(Image.open(shot).convert("RGB"), dtype=np.int64)
+    red = (rgb[..., 0] > 150) & (rgb[..., 1] < 90) & (rgb[..., 2] < 90)
+    assert red.sum() > 200, red.sum()

@@ -24,6 +24,11 @@ def sensor_options() -> list[str]:
     return list(_core.sensor_options())
 
 
+def materials() -> list[str]:
+    """Names of the cloth material presets; the first is the default."""
+    return list(_core.materials())
+
+
 def non_conservative_methods() -> list[str]:
     """Names of the methods that can miss contacts by design (their misses are measured)."""
     return list(_core.non_conservative_methods())
@@ -192,12 +197,32 @@ class Detector:
         """
         return self._inner.last_proximity
 
+    def proximity_faces(self) -> np.ndarray:
+        """Faces in the last call's proximity contacts, sorted, int64: the triangle of each
+        vertex-triangle contact and every face on an edge of an edge-edge contact.
+
+        What the viewer and the reports draw as "near"; empty before the first call
+        and when thickness is 0.
+        """
+        prox = self.last_proximity
+        if prox is None:
+            return np.zeros(0, dtype=np.int64)
+        n = np.int64(self.mesh.n_vertices)
+        edges, faces = self.mesh.edges, self.mesh.faces
+        touched = edges[prox["edge_edge"].ravel()]
+        keys = touched[:, 0] * n + touched[:, 1]
+        on_edge = np.zeros(len(faces), dtype=bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = faces[:, i], faces[:, j]
+            on_edge |= np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
+        return np.union1d(prox["vertex_triangle"][:, 1], np.flatnonzero(on_edge)).astype(np.int64)
+
     def __repr__(self) -> str:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
-                       weld: bool = False) -> np.ndarray:
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> np.ndarray:
     """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
 
     Args:
@@ -209,25 +234,53 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: np
         weld: merge vertices at exactly equal positions first (see `Mesh`);
             face indices are unchanged.
     """
-    if subset is None:
-        mesh = Mesh(vertices, faces, weld=weld)
-        return _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
-    all_faces = _arrays.faces(faces)
-    ids = _arrays.face_ids(subset, len(all_faces), "subset")
-    if len(ids) < 2:
-        Mesh(vertices, all_faces, weld=weld)  # the same validation as the full query
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    if mesh is None:
         return np.zeros((0, 2), dtype=np.int64)
-    return ids[self_intersections(vertices, all_faces[ids], weld=weld)]
+    pairs = _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    return pairs if ids is None else ids[pairs]
 
 
-def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None = None,
-                          weld: bool = False) -> bool:
+def _query_mesh(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None,
+                weld: bool) -> tuple[Mesh | None, np.ndarray | None]:
+    """The mesh a one-shot query runs on: the whole mesh, or the faces of `subset` over the
+    same vertices (so adjacency stays by shared vertex ids) with the subset's sorted ids.
+    The whole mesh is validated either way; None for a subset of fewer than two faces."""
+    whole = Mesh(vertices, faces, weld=weld)
+    if subset is None:
+        return whole, None
+    ids = _arrays.face_ids(subset, whole.n_faces, "subset")
+    if len(ids) < 2:
+        return None, ids
+    return Mesh(vertices, _arrays.faces(faces)[ids], weld=weld), ids
+
+
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                          subset: npt.ArrayLike | None = None, weld: bool = False) -> bool:
     """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
 
-    Same answer as `len(self_intersections(...)) > 0`; the query runs in full
-    (the traversal has no early exit yet).
+    Same answer as `len(self_intersections(...)) > 0`, but the traversal stops
+    at the first intersecting pair (see `first_intersection`).
     """
-    return len(self_intersections(vertices, faces, subset, weld)) > 0
+    return first_intersection(vertices, faces, subset, weld) is not None
+
+
+def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; exact.
+
+    The engine's traversal (boxes only, sequential) stops at the first pair it
+    finds; the pair is the same on every run. Both queries build the hierarchy
+    first, so the saving is the rest of the traversal (BENCHMARKS.md).
+    `subset` and `weld` are as in `self_intersections` (ids in the original
+    numbering).
+    """
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    pair = None if mesh is None else _core.first_intersection(mesh._inner, mesh._positions(vertices, "vertices"))
+    if pair is None:
+        return None
+    a, b = pair
+    return (a, b) if ids is None else (int(ids[a]), int(ids[b]))
 
 
 def continuous_impacts(
@@ -294,8 +347,9 @@ def paper_scenes() -> list[str]:
 
 
 class Simulation:
-    """One of the paper's cloth scenes in motion (mass-spring cloth, implicit Euler,
-    self-collision response driven by a detection method).
+    """A cloth in motion (mass-spring cloth, implicit Euler, self- and obstacle
+    collision response driven by a detection method): one of the paper's scenes,
+    or any mesh with `Simulation.from_mesh`.
 
     Args:
         scene: "two-corners", "corner" or "center" (see `paper_scenes()`).
@@ -316,6 +370,52 @@ class Simulation:
         self._inner = _core.Simulation(scene, resolution, method, None if dt is None else _arrays.number(dt, "dt"),
                                        _arrays.flag(self_collision, "self_collision"))
         self.mesh = Mesh._wrap(self._inner.mesh)
+
+    @classmethod
+    def from_mesh(cls, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, rest: npt.ArrayLike | None = None,
+                  pins: Any = (), obstacles: Sequence[Any] = (), up: str = "z", material: str = "cotton",
+                  method: str = DEFAULT_METHOD, dt: float | None = None, frame_time: float | None = None,
+                  self_collision: bool = True, friction: float | None = None,
+                  obstacle_friction: float | None = None) -> "Simulation":
+        """A cloth over any triangle mesh, starting at `vertices`.
+
+        Args:
+            rest: rest shape with the same triangles (say, a garment's flat pattern); default `vertices`.
+            pins: vertices held fixed: pin specs ("top:FRACTION", "indices:FILE", "box:x0,y0,z0,x1,y1,z1"),
+                vertex ids, or a boolean mask (see `selfcd.scenes.pins`); several are combined.
+            obstacles: meshes the cloth collides with: files, directories of frame files, (V, F)
+                pairs, or (frames (k, n, 3), F) animations (see `selfcd.scenes.obstacle`).
+            up: the up axis, "x", "y" or "z": gravity points down it.
+            material: a preset of `selfcd.materials()` (cotton, silk, denim).
+            dt: time step (s), default 1/60.
+            frame_time: seconds per obstacle keyframe (default: dt).
+            friction, obstacle_friction: Coulomb coefficients of cloth-cloth and
+                cloth-obstacle contacts (default 0.3 and 0.5).
+        """
+        from . import scenes
+
+        v = _arrays.points(vertices, "vertices")
+        f = _arrays.faces(faces)
+        r = None if rest is None else _arrays.points(rest, "rest", len(v))
+        ids = scenes.pins(v, pins, up)
+        obs = [scenes.obstacle(o) for o in obstacles]
+        step = 1.0 / 60.0 if dt is None else float(dt)
+        self = cls.__new__(cls)
+        self._inner = _core.Simulation.from_mesh(
+            v, f, r, ids, obs, step if frame_time is None else float(frame_time), scenes.gravity(up), material,
+            method, dt, bool(self_collision), friction, obstacle_friction)
+        self.mesh = Mesh._wrap(self._inner.mesh)
+        return self
+
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """Positions of every obstacle (merged in order) at the current time, (n, 3); empty without obstacles."""
+        return self._inner.obstacle_positions
+
+    @property
+    def obstacle_faces(self) -> np.ndarray:
+        """Faces of the merged obstacle mesh, (m, 3)."""
+        return self._inner.obstacle_faces
 
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats ("detection" holds the detector's FrameStats)."""
@@ -352,13 +452,13 @@ class Simulation:
         return self._inner.pinned
 
     @property
-    def scene(self) -> str:
-        """The scene's name."""
+    def scene(self) -> str | None:
+        """The scene's name (None for `from_mesh`)."""
         return self._inner.scene
 
     @property
-    def resolution(self) -> int:
-        """Vertices per side."""
+    def resolution(self) -> int | None:
+        """Vertices per side (None for `from_mesh`)."""
         return self._inner.resolution
 
     @property
@@ -396,4 +496,6 @@ class Simulation:
         return self._inner.energy()
 
     def __repr__(self) -> str:
+        if self.scene is None:
+            return f"selfcd.Simulation.from_mesh({self.mesh.n_vertices} vertices, method={self.method!r})"
         return f"selfcd.Simulation(scene={self.scene!r}, resolution={self.resolution}, method={self.method!r})"

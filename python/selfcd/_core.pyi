@@ -72,6 +72,9 @@ class Detector:
 def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
     """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
 
+def first_intersection(mesh: Mesh, positions: np.ndarray) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; stops at the first found."""
+
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, separation: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `separation` during the linear step x0 -> x1, with times of impact."""
 
@@ -91,6 +94,9 @@ def deform(rest: np.ndarray, shape: str, **params: float) -> np.ndarray:
 def paper_scenes() -> list[str]:
     """Names of the paper's cloth scenes, in the paper's order."""
 
+def materials() -> list[str]:
+    """Names of the cloth material presets (the first is the default)."""
+
 @final
 class Simulation:
     """One of the paper's cloth scenes in motion, stepped with a detection method."""
@@ -98,6 +104,20 @@ class Simulation:
     def __new__(cls, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
                  dt: float | None = None, self_collision: bool = True) -> Simulation:
         """Builds the scene's cloth and simulator."""
+    @staticmethod
+    def from_mesh(vertices: np.ndarray, faces: np.ndarray, rest: np.ndarray | None = None,
+                  pins: np.ndarray | None = None, obstacles: list[tuple[np.ndarray, np.ndarray]] = ...,
+                  frame_time: float = 1.0 / 60.0, gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
+                  material: str = "cotton", method: str = "bvh-cones-contour", dt: float | None = None,
+                  self_collision: bool = True, friction: float | None = None,
+                  obstacle_friction: float | None = None) -> Simulation:
+        """A cloth over any mesh, with pins (vertex ids) and obstacles ((keyframes (k,n,3), faces))."""
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """Obstacle positions (merged) at the current time, (n,3)."""
+    @property
+    def obstacle_faces(self) -> np.ndarray:
+        """Faces of the merged obstacle mesh, (m,3)."""
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats."""
     def run(self, steps: int, every: int = 1, progress: Callable[[int], object] | None = None
@@ -116,11 +136,11 @@ class Simulation:
     def pinned(self) -> np.ndarray:
         """Pinned vertices, (n,) bool."""
     @property
-    def scene(self) -> str:
-        """The scene's name."""
+    def scene(self) -> str | None:
+        """The scene's name (None for a mesh)."""
     @property
-    def resolution(self) -> int:
-        """Vertices per side."""
+    def resolution(self) -> int | None:
+        """Vertices per side (None for a mesh)."""
     @property
     def method(self) -> str:
         """The detection method driving the response."""

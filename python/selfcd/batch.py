@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import html
+import multiprocessing
 import re
 import time
 from collections.abc import Callable
@@ -83,7 +84,8 @@ def run_local(inputs: list[str], method: str, workers: int, progress: Progress |
                 progress(k + 1)
         return rows
     out: list[dict[str, Any] | None] = [None] * len(inputs)
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    # "spawn": a forked child would inherit the engine's thread pool without its threads and hang
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(check_input, path, method): k for k, path in enumerate(inputs)}
         for done, fut in enumerate(as_completed(futures), 1):
             out[futures[fut]] = fut.result()

@@ -250,60 +250,213 @@ def batch(inputs: tuple[Path, ...], out_dir: Path, method: str, workers: int | N
 
 
 @main.command()
-@click.option("--scene", type=click.Choice(_api.paper_scenes()), required=True, help="The paper's cloth scene.")
+@click.option("--scene", type=click.Choice(_api.paper_scenes()), default=None,
+              help="One of the paper's cloth scenes (or give --mesh).")
+@click.option("--mesh", "mesh_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Cloth mesh file (OBJ, PLY, ... or .npz with V and F): its positions are the start.")
+@click.option("--rest", "rest_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Rest shape with the same triangles as --mesh (say, a flat sewing pattern); default: the mesh.")
+@click.option("--pin", "pin_specs", multiple=True, metavar="SPEC",
+              help="Pinned vertices: top:FRACTION (within that fraction of the height of the top), "
+                   "indices:FILE (ids, text or .npy), box:x0,y0,z0,x1,y1,z1. Repeatable.")
+@click.option("--obstacle", "obstacle_paths", multiple=True, type=click.Path(path_type=Path), metavar="PATH",
+              help="Obstacle: a mesh file (static), a directory of frame files (natural order) or an .npz with "
+                   "V (frames, n, 3) and F; played one frame per output frame, interpolated. Repeatable.")
+@click.option("--up", type=click.Choice(["x", "y", "z"]), default="z", show_default=True,
+              help="Up axis of --mesh: gravity points down it.")
+@click.option("--material", type=click.Choice(_api.materials()), default=_api.materials()[0], show_default=True,
+              help="Cloth material preset (--mesh).")
+@click.option("--friction", type=click.FloatRange(min=0), default=None,
+              help="Coulomb friction of cloth-cloth contacts (default 0.3).")
+@click.option("--obstacle-friction", type=click.FloatRange(min=0), default=None,
+              help="Coulomb friction of cloth-obstacle contacts (default 0.5).")
 @click.option("--frames", type=click.IntRange(1, 1000000), required=True, help="Frames to record.")
 @click.option("--every", type=click.IntRange(1), default=1, show_default=True, help="Simulation steps per frame.")
 @click.option("--resolution", type=click.IntRange(2, 4096), default=demo_mod.PAPER_RESOLUTION, show_default=True,
-              help="Vertices per side of the 1 m square cloth.")
+              help="Vertices per side of the 1 m square cloth (--scene).")
 @click.option("--method", type=_method_choice(), default=_api.DEFAULT_METHOD, show_default=True,
               help="Detection method driving the self-collision response.")
 @click.option("--dt", type=click.FloatRange(min=0, min_open=True), default=None, help="Time step (s); default 1/60.")
 @click.option("--no-self-collision", is_flag=True, help="Let the cloth pass through itself.")
+@click.option("--obj", "write_obj", is_flag=True, help="Also write every frame as OBJ files in OUT/obj/.")
+@click.option("--usd", "usd_name", default=None, metavar="NAME",
+              help="Also write the frames as USD (time-sampled points) to OUT/NAME (.usd, .usda or .usdc), "
+                   "obstacles to OUT/NAME_obstacles (needs usd-core; up axis y or z).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output folder (default: ./selfcd-sim-SCENE).")
-def simulate(scene: str, frames: int, every: int, resolution: int, method: str, dt: float | None,
-             no_self_collision: bool, out_dir: Path | None) -> None:
-    """Simulate one of the paper's cloth scenes; save the frames and per-step stats.
+              help="Output folder (default: ./selfcd-sim-SCENE or ./selfcd-sim-MESH).")
+def simulate(scene: str | None, mesh_file: Path | None, rest_file: Path | None, pin_specs: tuple[str, ...],
+             obstacle_paths: tuple[Path, ...], up: str, material: str, friction: float | None,
+             obstacle_friction: float | None, frames: int, every: int, resolution: int, method: str,
+             dt: float | None, no_self_collision: bool, write_obj: bool, usd_name: str | None,
+             out_dir: Path | None) -> None:
+    """Simulate a cloth: one of the paper's scenes, or any mesh with pins and obstacles.
 
-    Writes OUT/frames.npz (V: frames x vertices x 3, F: faces, time, pinned)
-    and OUT/stats.json (per-step solver, contact and detection stats). The
-    frames can be checked with `selfcd detect OUT/frames.npz`.
+    Writes OUT/frames.npz (V: frames x vertices x 3, F: faces, time, pinned;
+    with obstacles also OV: frames x obstacle vertices x 3 and OF), OUT/stats.json
+    (per-step solver, contact and detection stats) and, with --obj,
+    OUT/obj/cloth_NNNNN.obj (and obstacle_NNNNN.obj), with --usd a USD
+    animation at the frame rate. Files are written as the
+    run goes: an interrupted run keeps the frames it computed. The frames can
+    be checked with `selfcd detect OUT/frames.npz`.
     """
-    out_dir = out_dir or Path(f"selfcd-sim-{scene}")
+    if (scene is None) == (mesh_file is None):
+        raise click.UsageError("give either --scene NAME or --mesh FILE (not both)")
+    if scene is not None and (rest_file or pin_specs or obstacle_paths):
+        raise click.UsageError("--rest, --pin and --obstacle need --mesh")
+    out_dir = out_dir or Path(f"selfcd-sim-{scene or mesh_file.stem}")
+    _prepare_output(out_dir, write_obj)
     try:
-        sim = _api.Simulation(scene, resolution, method, dt=dt, self_collision=not no_self_collision)
+        if scene is not None:
+            sim = _api.Simulation(scene, resolution, method, dt=dt, self_collision=not no_self_collision)
+        else:
+            v, f = mesh_io.load_mesh(mesh_file)
+            rest = None if rest_file is None else mesh_io.load_mesh(rest_file)
+            if rest is not None and not np.array_equal(rest[1], f):
+                raise ValueError(f"{rest_file}: the rest shape must have the same triangles as {mesh_file}")
+            step = 1.0 / 60.0 if dt is None else dt
+            sim = _api.Simulation.from_mesh(
+                v, f, rest=None if rest is None else rest[0], pins=list(pin_specs),
+                obstacles=[str(p) for p in obstacle_paths], up=up, material=material, method=method, dt=dt,
+                frame_time=step * every, self_collision=not no_self_collision, friction=friction,
+                obstacle_friction=obstacle_friction)
     except (ValueError, TypeError) as exc:
         raise InputError(str(exc)) from None
+    name = scene or mesh_file.name
+    try:
+        usd = None if usd_name is None else _usd_writers(out_dir / usd_name, sim, 1.0 / (sim.dt * every), up)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    recording = _Recording(out_dir, sim, write_obj, usd)
     steps = (frames - 1) * every
-    with _bar(steps, f"{scene}: simulate") as bar:
-        positions, times, stats = sim.run(steps, every, lambda done: bar.update(done - bar.n))
-    summary = _write_simulation(out_dir, sim, positions, times, stats)
-    click.echo(f"{scene}: {summary['steps']} steps of {sim.dt * 1e3:.2f} ms, {sim.mesh.n_faces} triangles, "
+    try:
+        with _bar(steps, f"{name}: simulate") as bar:
+            for _ in range(frames - 1):
+                positions, _, stats = sim.run(every, every)
+                recording.add(positions[-1], stats)
+                bar.update(every)
+    except KeyboardInterrupt:
+        summary = recording.save()
+        click.echo(f"{name}: interrupted after {summary['steps']} steps; {summary['frames']} frames kept in "
+                   f"{out_dir}", err=True)
+        sys.exit(130)
+    summary = recording.save()
+    click.echo(f"{name}: {summary['steps']} steps of {sim.dt * 1e3:.2f} ms, {sim.mesh.n_faces} triangles, "
                f"method {method}")
-    click.echo(f"  mean step {summary['mean_step_ms']:.2f} ms (detection {summary['mean_detect_ms']:.2f} ms); "
-               f"steps with contacts {summary['steps_with_contacts']}; intersections left {summary['max_intersections']}")
+    click.echo(f"  mean step {summary['mean_step_ms']:.2f} ms (self-collision {summary['mean_detect_ms']:.2f} ms, "
+               f"obstacles {summary['mean_obstacle_ms']:.2f} ms); steps with contacts "
+               f"{summary['steps_with_contacts']}; intersections left {summary['max_intersections']}")
     click.echo(f"  frames: {out_dir / 'frames.npz'}  stats: {out_dir / 'stats.json'}")
 
 
-def _write_simulation(out_dir: Path, sim: _api.Simulation, positions: np.ndarray, times: np.ndarray,
-                 stats: dict[str, Any]) -> dict[str, Any]:
-    """Writes frames.npz and stats.json for a finished run; returns the summary."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(out_dir / "frames.npz", V=positions, F=sim.mesh.faces, time=times, pinned=sim.pinned)
-    detection = stats.pop("detection")
-    n = len(stats["step_time"])
-    summary = {
+def _usd_writers(path: Path, sim: _api.Simulation, fps: float, up: str) -> list[Any]:
+    """USD writers for the cloth at `path` and, with obstacles, for them next to it; UsdError (a ValueError) if not."""
+    from .usd import UsdWriter
+
+    writers = [UsdWriter(path, sim.mesh.faces, fps, up)]
+    if len(sim.obstacle_faces):
+        writers.append(UsdWriter(path.with_name(f"{path.stem}_obstacles{path.suffix}"), sim.obstacle_faces, fps, up))
+    return writers
+
+
+def _prepare_output(out_dir: Path, write_obj: bool) -> None:
+    """Creates OUT, checks it is writable, and removes an earlier run's output
+    (so nothing stale is left next to this run's); bad folder: exit status 2."""
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        probe = out_dir / ".selfcd-write-test"
+        probe.write_text("")
+        probe.unlink()
+        for old in ("frames.npz", "stats.json"):
+            (out_dir / old).unlink(missing_ok=True)
+        obj_dir = out_dir / "obj"
+        if obj_dir.is_dir():
+            for old in obj_dir.glob("*_[0-9][0-9][0-9][0-9][0-9].obj"):
+                old.unlink()
+        if write_obj:
+            obj_dir.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot write to output folder {out_dir}: {exc.strerror or exc}") from None
+
+
+class _Recording:
+    """Frames and stats of a run, saved as they come: OBJ files per frame, and
+    frames.npz and stats.json rewritten (atomically) at most every few seconds and at the end."""
+
+    SAVE_EVERY_S = 5.0
+
+    def __init__(self, out_dir: Path, sim: _api.Simulation, write_obj: bool, usd: list[Any] | None = None) -> None:
+        self.out_dir, self.sim, self.write_obj, self.usd = out_dir, sim, write_obj, usd or []
+        self.frames: list[np.ndarray] = []
+        self.obstacles: list[np.ndarray] = []
+        self.times: list[float] = []
+        self.stats: list[dict[str, Any]] = []
+        self.saved_at = time.monotonic()
+        self._frame(sim.positions)
+        self.save()
+
+    def _frame(self, positions: np.ndarray) -> None:
+        k = len(self.frames)
+        self.frames.append(positions)
+        self.times.append(self.sim.time)
+        ov = self.sim.obstacle_positions
+        self.obstacles.append(ov)
+        if self.write_obj:
+            mesh_io.save_obj(self.out_dir / "obj" / f"cloth_{k:05d}.obj", positions, self.sim.mesh.faces)
+            if len(ov):
+                mesh_io.save_obj(self.out_dir / "obj" / f"obstacle_{k:05d}.obj", ov, self.sim.obstacle_faces)
+        for writer, p in zip(self.usd, (positions, ov)):
+            writer.write_frame(p)
+
+    def add(self, positions: np.ndarray, stats: dict[str, Any]) -> None:
+        self._frame(positions)
+        self.stats.append(stats)
+        if time.monotonic() - self.saved_at > self.SAVE_EVERY_S:
+            self.save()
+
+    def save(self) -> dict[str, Any]:
+        """Writes frames.npz and stats.json for what was recorded; returns the summary."""
+        self.saved_at = time.monotonic()
+        for writer in self.usd:
+            writer.save()
+        arrays = {"V": np.stack(self.frames), "F": self.sim.mesh.faces, "time": np.array(self.times),
+                  "pinned": self.sim.pinned}
+        if len(self.obstacles[0]):
+            arrays |= {"OV": np.stack(self.obstacles), "OF": self.sim.obstacle_faces}
+        _replace(self.out_dir / "frames.npz", lambda f: np.savez_compressed(f, **arrays))
+        columns = {k: np.concatenate([np.atleast_1d(s[k]) for s in self.stats]) if self.stats else np.zeros(0)
+                   for k in (self.stats[0] if self.stats else {}) if k != "detection"}
+        detection = {k: np.concatenate([s["detection"][k] for s in self.stats])
+                     for k in (self.stats[0]["detection"] if self.stats else {})}
+        summary = _summary(self.sim, len(self.frames), columns)
+        per_step = {k: v.tolist() for k, v in columns.items()}
+        per_step["detection"] = {k: np.asarray(v).tolist() for k, v in detection.items()}
+        text = json.dumps({"summary": summary, "steps": per_step}, indent=1)
+        _replace(self.out_dir / "stats.json", lambda f: f.write(text.encode()))
+        return summary
+
+
+def _replace(path: Path, write: Any) -> None:
+    """Writes `path` through a temporary file and a rename, so a reader never sees half a file."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        write(f)
+    tmp.replace(path)
+
+
+def _summary(sim: _api.Simulation, n_frames: int, stats: dict[str, np.ndarray]) -> dict[str, Any]:
+    n = len(stats.get("step_time", ()))
+    mean_ms = lambda k: float(np.mean(stats[k]) * 1e3) if n else 0.0  # noqa: E731
+    return {
         "scene": sim.scene, "resolution": sim.resolution, "method": sim.method, "dt": sim.dt, "steps": n,
-        "frames": int(len(positions)), "contact_thickness": sim.contact_thickness,
-        "mean_step_ms": float(np.mean(stats["step_time"]) * 1e3) if n else 0.0,
-        "mean_detect_ms": float(np.mean(stats["detect_time"]) * 1e3) if n else 0.0,
-        "steps_with_contacts": int(np.count_nonzero(stats["contacts"])),
-        "max_intersections": int(np.max(stats["intersections"], initial=0)),
+        "frames": n_frames, "triangles": sim.mesh.n_faces, "obstacle_triangles": int(len(sim.obstacle_faces)),
+        "contact_thickness": sim.contact_thickness,
+        "mean_step_ms": mean_ms("step_time"), "mean_solve_ms": mean_ms("solve_time"),
+        "mean_detect_ms": mean_ms("detect_time"), "mean_obstacle_ms": mean_ms("obstacle_time"),
+        "mean_response_ms": mean_ms("response_time"),
+        "mean_contacts": float(np.mean(stats["contacts"])) if n else 0.0,
+        "steps_with_contacts": int(np.count_nonzero(stats["contacts"])) if n else 0,
+        "max_intersections": int(np.max(stats["intersections"], initial=0)) if n else 0,
     }
-    per_step = {k: np.asarray(v).tolist() for k, v in stats.items()}
-    per_step["detection"] = {k: np.asarray(v).tolist() for k, v in detection.items()}
-    (out_dir / "stats.json").write_text(json.dumps({"summary": summary, "steps": per_step}, indent=1))
-    return summary
 
 
 # ---------------------------------------------------------------- bench
@@ -385,9 +538,12 @@ def _size(value: str) -> tuple[int, int]:
 @click.option("--size", default="1024x768", show_default=True, help="Window or screenshot size, WIDTHxHEIGHT.")
 @click.option("--with-panel", is_flag=True, help="Include the control panel in the screenshot.")
 @click.option("--paused", is_flag=True, help="Open the window paused (default: playing).")
+@click.option("--up", type=click.Choice(["x", "y", "z"]), default=None,
+              help="The axis that points up (default: z for scenes and .npz/.stl, the stage's for USD, "
+                   "y for OBJ, PLY, OFF and glTF).")
 def view(files: tuple[Path, ...], scene: str | None, resolution: int, method: str | None, response_method: str,
          thickness: float | None, bvh_depth: int | None, frames: int, screenshot: Path | None, size: str,
-         with_panel: bool, paused: bool) -> None:
+         with_panel: bool, paused: bool, up: str | None) -> None:
     """Watch a cloth scene live, or mesh FILES, in an interactive polyscope window.
 
     `selfcd view --scene center` simulates the paper's scene and shows the
@@ -411,10 +567,11 @@ def view(files: tuple[Path, ...], scene: str | None, resolution: int, method: st
     try:
         if scene is not None:
             source: viewer_mod.Source = viewer_mod.ClothSource(scene, resolution, response_method)
+            source.up = up or source.up
             default_method, default_thickness = viewer_mod.SENSOR_METHOD, source.sim.contact_distance
         else:
             seq, faces, labels = mesh_io.load_sequence(list(files))
-            source = viewer_mod.FramesSource(seq, faces, labels)
+            source = viewer_mod.FramesSource(seq, faces, labels, up or mesh_io.up_axis(files[0]))
             default_method, default_thickness = _api.DEFAULT_METHOD, 0.0
         v = viewer_mod.Viewer(source, method or default_method,
                               default_thickness if thickness is None else thickness)

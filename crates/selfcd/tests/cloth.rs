@@ -376,3 +376,45 @@ fn obstacles_reject_bad_input() {
         Err(Error::IndexOutOfRange { .. })
     ));
 }
+
+#[test]
+fn intersections_the_input_starts_with_are_left_alone_and_counted() {
+    // Two squares crossing at right angles: one in the xy plane, one in the xz plane.
+    let (v, f) = grid(5, 1.0);
+    let n = v.len() as u32;
+    let mut vs: Vec<[f64; 3]> = v.iter().map(|p| [p[0], p[1] - 0.5, 0.0]).collect();
+    vs.extend(v.iter().map(|p| [p[0] + 0.05, 0.02, p[1] - 0.5]));
+    let mut fs = f.clone();
+    fs.extend(f.iter().map(|t| t.map(|i| i + n)));
+    let cloth = Cloth::new(
+        Arc::new(Mesh::new(vs, fs).unwrap()),
+        Material::default(),
+        &[],
+    )
+    .unwrap();
+    let mut sim = Simulation::new(
+        cloth.clone(),
+        Method::BvhConesContour,
+        SimOptions::for_cloth(&cloth),
+    )
+    .unwrap();
+    let at_start = selfcd::self_intersections(cloth.mesh(), sim.positions())
+        .unwrap()
+        .len();
+    assert!(at_start > 0);
+    for _ in 0..30 {
+        let st = sim.step().unwrap();
+        let now = selfcd::self_intersections(sim.cloth().mesh(), sim.positions())
+            .unwrap()
+            .len();
+        assert!(
+            now > 0 && st.intersections == now,
+            "the crossing stays, and is counted"
+        );
+    }
+    let drop = -sim.positions()[0].z;
+    assert!(
+        drop > 0.3,
+        "the cloth falls freely, not frozen by the crossing: {drop}"
+    );
+}

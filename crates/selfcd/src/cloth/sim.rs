@@ -13,7 +13,10 @@
 //! 5. `x += h v`;
 //! 6. correction: a conservative intersection check (self, and cloth against
 //!    the obstacles at the end of the step) and impact zones, repeated until
-//!    no intersecting triangle pair is left.
+//!    no intersecting triangle pair is left. Self-intersections the state
+//!    already had at the start of the step (an input may come with some) are
+//!    left alone and still counted in [`StepStats::intersections`]; a state
+//!    free of them stays free.
 //!
 //! The detectors own their hierarchies; the simulation owns positions and
 //! velocities and hands the detectors positions.
@@ -147,6 +150,9 @@ pub struct Simulation {
     detector: Box<dyn Detector>,
     /// Conservative intersection check of the correction stage.
     checker: Box<dyn Detector>,
+    /// Self-intersecting pairs of the current state (sorted): the correction
+    /// leaves these alone (an input may start with some), and removes any other.
+    tolerated: Vec<[u32; 2]>,
     /// Hierarchy for the self continuous query (swept boxes).
     continuous: BvhDetector,
     /// Obstacles, with the cloth hierarchy their queries traverse.
@@ -171,11 +177,12 @@ impl Simulation {
                 ..Default::default()
             },
         )?;
-        let checker = new_detector(
+        let mut checker = new_detector(
             mesh.clone(),
             Method::BvhConesContour,
             &DetectorOptions::default(),
         )?;
+        let tolerated = checker.detect(mesh.rest())?.pairs;
         let continuous = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
         let n = mesh.n_vertices();
         Ok(Simulation {
@@ -189,6 +196,7 @@ impl Simulation {
             opts,
             detector,
             checker,
+            tolerated,
             continuous,
             obstacles: None,
             time: 0.0,
@@ -223,6 +231,7 @@ impl Simulation {
                 *vi = DVec3::ZERO;
             }
         }
+        self.tolerated = self.checker.detect(&x)?.pairs;
         (self.x, self.v) = (x, v);
         self.dv.iter_mut().for_each(|d| *d = DVec3::ZERO);
         Ok(())
@@ -411,11 +420,17 @@ impl Simulation {
         let mut combined: Vec<DVec3> = self.x.iter().chain(o1).copied().collect();
         loop {
             st.correction_rounds += 1;
-            let pairs = if self.opts.self_collision {
+            let mut all = if self.opts.self_collision {
                 timed(&mut st.detect_time, || self.checker.detect(&self.x))?.pairs
             } else {
                 Vec::new()
             };
+            all.sort_unstable();
+            let pairs: Vec<[u32; 2]> = all
+                .iter()
+                .copied()
+                .filter(|p| self.tolerated.binary_search(p).is_err())
+                .collect();
             let mut hits = Vec::new();
             if let Some((obs, bvh)) = self.obstacles.as_mut() {
                 combined[..n].copy_from_slice(&self.x);
@@ -439,8 +454,9 @@ impl Simulation {
             changed |= !pairs.is_empty() && zones.absorb(mesh, &pairs);
             if !changed || st.correction_rounds >= CORRECTION_ROUNDS {
                 (st.intersections, st.obstacle_intersections) =
-                    (pairs.len() + hits.len(), hits.len());
+                    (all.len() + hits.len(), hits.len());
                 (st.reverted, st.zones) = (zones.members(), zones.count());
+                self.tolerated = all;
                 return Ok(());
             }
             zones.move_rigidly(&start, &v_in, &mut self.x, &mut self.v);

@@ -14,6 +14,7 @@
 pub mod brute;
 pub mod compare;
 pub mod continuous;
+pub mod first;
 pub mod hierarchy;
 pub mod narrow;
 pub mod obstacle;
