@@ -26,8 +26,8 @@ for name in ("dress_on_body", "multilayer_skirt_on_body", "body", "skirt_32k"):
             ts.append(time.perf_counter() - t)
         return float(np.median(ts)), r
 
-    tf, first = med(lambda: selfcd.first_intersection(V, F))
-    ta, allp = med(lambda: selfcd.self_intersections(V, F))
+    tf, first = med(lambda V=V, F=F: selfcd.first_intersection(V, F))
+    ta, allp = med(lambda V=V, F=F: selfcd.self_intersections(V, F))
     assert (first is None) == (len(allp) == 0)
     print(f"{name:<26} pairs {len(allp):>5}  first {tf * 1e3:8.1f} ms  all {ta * 1e3:8.1f} ms  "
           f"all/first {ta / tf:5.2f}  first={first}")

@@ -132,3 +132,17 @@ def test_every_bad_file_is_a_clear_error_with_status_2(tmp_path: Path) -> None:
         r = _run("detect", str(tmp_path / name))
         assert r.returncode == 2, (name, r.returncode, r.stderr)
         assert "Error:" in r.stderr and "Traceback" not in r.stderr and "charset" not in r.stderr
+
+
+def test_batch_welds_stl_like_detect(tmp_path: Path) -> None:
+    import trimesh
+
+    from selfcd.batch import check_input
+
+    folded = selfcd.scenes.deform(V, "fold", angle=3.6)
+    path = tmp_path / "soup.stl"
+    trimesh.Trimesh(folded, F, process=False).export(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        row = check_input(str(path))
+    assert row["pairs_total"] == len(selfcd.self_intersections(folded, F)) > 0, row

@@ -4,9 +4,9 @@ and on a local Ray head, bad inputs as error rows."""
 from __future__ import annotations
 
 import csv
-from concurrent.futures import ThreadPoolExecutor
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np

@@ -376,7 +376,7 @@ class Simulation:
                   pins: Any = (), obstacles: Sequence[Any] = (), up: str = "z", material: str = "cotton",
                   method: str = DEFAULT_METHOD, dt: float | None = None, frame_time: float | None = None,
                   self_collision: bool = True, friction: float | None = None,
-                  obstacle_friction: float | None = None) -> "Simulation":
+                  obstacle_friction: float | None = None) -> Simulation:
         """A cloth over any triangle mesh, starting at `vertices`.
 
         Args:

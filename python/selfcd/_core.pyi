@@ -107,11 +107,12 @@ class Simulation:
     @staticmethod
     def from_mesh(vertices: np.ndarray, faces: np.ndarray, rest: np.ndarray | None = None,
                   pins: np.ndarray | None = None, obstacles: list[tuple[np.ndarray, np.ndarray]] = ...,
-                  frame_time: float = 1.0 / 60.0, gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
+                  frame_time: float = ..., gravity: tuple[float, float, float] = ...,
                   material: str = "cotton", method: str = "bvh-cones-contour", dt: float | None = None,
                   self_collision: bool = True, friction: float | None = None,
                   obstacle_friction: float | None = None) -> Simulation:
-        """A cloth over any mesh, with pins (vertex ids) and obstacles ((keyframes (k,n,3), faces))."""
+        """A cloth over any mesh, with pins (vertex ids) and obstacles ((keyframes (k,n,3), faces));
+        defaults: no obstacles, frame_time 1/60 s, gravity (0, 0, -9.81)."""
     @property
     def obstacle_positions(self) -> np.ndarray:
         """Obstacle positions (merged) at the current time, (n,3)."""

@@ -58,8 +58,9 @@ def check_input(path: str, method: str = _api.DEFAULT_METHOD) -> dict[str, Any]:
     row["input"] = path
     try:
         p = Path(path)
-        frames, faces, labels = mesh_io.load_sequence(frame_files(p) if p.is_dir() else [p])
-        counts = check_frames(frames, faces, labels, method).counts()
+        files = frame_files(p) if p.is_dir() else [p]
+        frames, faces, labels = mesh_io.load_sequence(files)
+        counts = check_frames(frames, faces, labels, method, weld=mesh_io.weld_by_default(files)).counts()
     except (ValueError, TypeError, OSError, MemoryError) as exc:
         row["error"] = f"{type(exc).__name__}: {exc}"
     else:

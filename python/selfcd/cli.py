@@ -141,7 +141,7 @@ def detect(files: tuple[Path, ...], method: str, as_json: bool, max_pairs: int, 
     intersection, 1 some intersection, 2 bad input, 130 interrupted.
     """
     if weld is None:
-        weld = any(f.suffix.lower() == ".stl" for f in files)
+        weld = mesh_io.weld_by_default(list(files))
     bar = partial(tqdm, desc="detect", unit="frame", leave=False, delay=1.0, disable=None)
     try:
         frames, faces, labels = mesh_io.load_sequence(list(files))

@@ -93,6 +93,11 @@ def _check_path(path: Path) -> None:
         raise MeshFileError(f"{path}: the file is empty")
 
 
+def weld_by_default(paths: list[str | Path]) -> bool:
+    """Whether to weld a mesh read from `paths` unless told: yes for STL, a triangle soup by format."""
+    return any(Path(p).suffix.lower() == ".stl" for p in paths)
+
+
 def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(vertices (n,3), faces (m,3)) of one file; raises MeshFileError."""
     path = Path(path)

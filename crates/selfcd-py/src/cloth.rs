@@ -116,6 +116,9 @@ impl PySimulation {
 /// Frames recorded by `Simulation.run`, and every step's stats.
 type Recording = (Vec<Vec<DVec3>>, Vec<f64>, Vec<StepStats>);
 
+/// An obstacle's keyframes and triangles, converted from numpy.
+type ObstacleFrames = (Vec<Vec<DVec3>>, Vec<[u32; 3]>);
+
 #[pymethods]
 impl PySimulation {
     /// The paper's scene `scene` at `resolution` x `resolution` vertices, detecting with `method`.
@@ -186,7 +189,7 @@ impl PySimulation {
                 .collect::<PyResult<_>>()?,
             None => Vec::new(),
         };
-        let parts: Vec<(Vec<Vec<DVec3>>, Vec<[u32; 3]>)> = obstacles
+        let parts: Vec<ObstacleFrames> = obstacles
             .iter()
             .map(|(v, f)| Ok((frames(v)?, triangles(f)?)))
             .collect::<PyResult<_>>()?;

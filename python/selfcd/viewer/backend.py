@@ -19,7 +19,6 @@ import numpy as np
 from .panel import Panel
 from .state import Viewer
 
-
 # Colours (linear RGB in [0, 1]). The cloth is a saturated blue so that a test
 # can find it in a screenshot by hue; contact colours have other hues.
 CLOTH_COLOR = (0.16, 0.42, 0.90)

@@ -3,7 +3,8 @@ frames read from files. Each source also says which axis points up."""
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 

@@ -102,17 +102,27 @@ pub fn leaf_pairs(cloth: &Bvh, obstacle: &Bvh, gap: f64) -> Vec<[u32; 2]> {
 /// box, so the traversal reaches that pair through the owner, and no pair comes twice.
 pub fn element_pairs(m: Meshes, leaves: &[[u32; 2]]) -> Vec<CrossPair> {
     let (ct, ot) = (m.cloth.topology(), m.obstacle.topology());
-    let owns_vertex = |topo: &crate::mesh::Topology, t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
-    let owns_edge = |topo: &crate::mesh::Topology, t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
+    let owns_vertex =
+        |topo: &crate::mesh::Topology, t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
+    let owns_edge =
+        |topo: &crate::mesh::Topology, t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
     let mut out = Vec::with_capacity(leaves.len() * 4);
     for &[a, b] in leaves {
-        let (ta, tb) = (m.cloth.triangles()[a as usize], m.obstacle.triangles()[b as usize]);
+        let (ta, tb) = (
+            m.cloth.triangles()[a as usize],
+            m.obstacle.triangles()[b as usize],
+        );
         let vs_a = ta.into_iter().filter(|&v| owns_vertex(ct, a, v));
         out.extend(vs_a.map(|v| CrossPair::ClothVertex(v, b)));
         let vs_b = tb.into_iter().filter(|&v| owns_vertex(ot, b, v));
         out.extend(vs_b.map(|v| CrossPair::ObstacleVertex(v, a)));
-        for e in ct.tri_edges[a as usize].into_iter().filter(|&e| owns_edge(ct, a, e)) {
-            let fs = ot.tri_edges[b as usize].into_iter().filter(|&f| owns_edge(ot, b, f));
+        for e in ct.tri_edges[a as usize]
+            .into_iter()
+            .filter(|&e| owns_edge(ct, a, e))
+        {
+            let fs = ot.tri_edges[b as usize]
+                .into_iter()
+                .filter(|&f| owns_edge(ot, b, f));
             out.extend(fs.map(|f| CrossPair::Edges(e, f)));
         }
     }
@@ -222,8 +232,14 @@ mod tests {
     /// Every element pair closer than d, by looping over all of them.
     fn brute_near(m: Meshes, x: &[DVec3], d: f64) -> Vec<CrossPair> {
         let (nc, no) = (m.cloth.n_vertices() as u32, m.obstacle.n_vertices() as u32);
-        let (tc, to) = (m.cloth.n_triangles() as u32, m.obstacle.n_triangles() as u32);
-        let (ec, eo) = (m.cloth.topology().edges.len() as u32, m.obstacle.topology().edges.len() as u32);
+        let (tc, to) = (
+            m.cloth.n_triangles() as u32,
+            m.obstacle.n_triangles() as u32,
+        );
+        let (ec, eo) = (
+            m.cloth.topology().edges.len() as u32,
+            m.obstacle.topology().edges.len() as u32,
+        );
         let all: Vec<CrossPair> = (0..nc)
             .flat_map(|v| (0..to).map(move |t| CrossPair::ClothVertex(v, t)))
             .chain((0..no).flat_map(|v| (0..tc).map(move |t| CrossPair::ObstacleVertex(v, t))))
@@ -247,7 +263,12 @@ mod tests {
             let pairs = element_pairs(m, &leaf_pairs(&bc, &bo, d));
             let mut got: Vec<_> = proximity(m, &x, &pairs, d).iter().map(|n| n.pair).collect();
             got.sort_unstable();
-            assert!(got == brute_near(m, &x, d), "lift {lift}: {} pairs, brute force {}", got.len(), brute_near(m, &x, d).len());
+            assert!(
+                got == brute_near(m, &x, d),
+                "lift {lift}: {} pairs, brute force {}",
+                got.len(),
+                brute_near(m, &x, d).len()
+            );
             assert_eq!(got.is_empty(), lift > d);
         }
     }
