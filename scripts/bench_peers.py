@@ -188,7 +188,7 @@ class Warp:
             a, b, c = idx[3 * t], idx[3 * t + 1], idx[3 * t + 2]
             pa, pb, pc = pts[a], pts[b], pts[c]
             q = wp.mesh_query_aabb(mesh, wp.min(wp.min(pa, pb), pc), wp.max(wp.max(pa, pb), pc))
-            f = 0
+            f = int(0)  # noqa: UP018  (warp: a typed variable the query writes to; a bare 0 is a constant)
             while wp.mesh_query_aabb_next(q, f):
                 if f > t:
                     d, e, g = idx[3 * f], idx[3 * f + 1], idx[3 * f + 2]
