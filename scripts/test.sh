@@ -12,7 +12,11 @@
 # enough: no GPU, no display.
 # Python packages: the selfcd package itself (pip install ., which builds the
 # Rust extension with maturin) and its test extras (pytest, playwright, pillow,
-# polyscope).
+# polyscope, usd-core, ray (the Ray test starts a small local head on 127.0.0.1),
+# and ruff and mypy for the gates).
+# Gates, run after the tests: cargo fmt --check, cargo clippy -D warnings,
+# ruff (configured in pyproject.toml) and mypy's stubtest of selfcd._core
+# against python/selfcd/_core.pyi.
 # No browser is downloaded: playwright drives Debian's /usr/bin/chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -44,5 +48,24 @@ cargo test --workspace || status=1
 echo "== pytest"
 "$PY" -m pytest -q tests || status=1
 
+# Gates, after the tests; each runs even when an earlier one failed, and each
+# failure is named at the end.
+failed=()
+gate() {
+    local name="$1"
+    shift
+    echo "== gate: $name"
+    "$@" || failed+=("$name")
+}
+command -v rustup >/dev/null && rustup component add rustfmt clippy >/dev/null 2>&1 || true
+gate "cargo fmt --check" cargo fmt --all --check
+gate "cargo clippy" cargo clippy --workspace --all-targets -- -D warnings
+gate "ruff" "$PY" -m ruff check .
+gate "stubtest" "$PY" -m mypy.stubtest selfcd._core --allowlist scripts/stubtest_allowlist.txt
+
 [ "$status" -eq 0 ] || echo "== FAILED: see the cargo test or pytest output above" >&2
+if [ ${#failed[@]} -gt 0 ]; then
+    echo "== FAILED gates: ${failed[*]}" >&2
+    status=1
+fi
 exit "$status"

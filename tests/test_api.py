@@ -74,7 +74,6 @@ def test_adjacent_faces_are_never_reported(rng: np.random.Generator) -> None:
 @pytest.mark.parametrize("seed", range(3))
 def test_crumpled_cloth_animation_keeps_matching_brute(seed: int) -> None:
     """A detector keeps its BVH (and sensor) between calls: each frame still matches brute."""
-    rng = np.random.default_rng(200 + seed)
     V, F = selfcd.scenes.grid(12)
     mesh = selfcd.Mesh(V, F)
     detectors = {m: selfcd.Detector(mesh, m) for m in selfcd.methods()}

@@ -22,6 +22,7 @@ from PIL import Image
 import selfcd
 from selfcd import io as mesh_io
 from selfcd import viewer as V
+from selfcd.demo import proximity_reference
 
 PAPER_SCENES = ["two-corners", "corner", "center"]
 FRAMES = 60  # one simulated second at the default dt = 1/60 s
@@ -305,3 +306,48 @@ def test_cli_without_polyscope_import(tmp_path: Path) -> None:
             "assert 'polyscope' not in sys.modules and 'selfcd.viewer' not in sys.modules")
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
+
+
+# ---------------------------------------------------------------- up axis and near faces
+
+
+def test_up_axis_is_chosen_per_file_and_overridable(tmp_path: Path) -> None:
+    """A tall sheet standing in the x-y plane: upright when Y is up (OBJ's default), lying when Z is."""
+    V0, F = selfcd.scenes.grid(11)
+    sheet = V0 * [0.3, 1.0, 0.0]
+    mesh_io.save_obj(tmp_path / "sheet.obj", sheet, F)
+    assert mesh_io.up_axis(tmp_path / "sheet.obj") == "y" and mesh_io.up_axis(tmp_path / "x.npz") == "z"
+    spans = {}
+    for up in (None, "z", "y"):
+        out = tmp_path / f"{up}.png"
+        args = ["view", "sheet.obj", "--screenshot", str(out), "--size", "480x480"] + (["--up", up] if up else [])
+        r = run_cli(*args, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        spans[up] = span(colour_mask(_hsv(out), V.CLOTH_COLOR))
+    assert spans[None] == spans["y"]
+    assert spans["y"][1] > 1.5 * spans["y"][0], spans  # standing: taller than wide
+    assert spans["z"][1] < spans["z"][0], spans  # on its back, seen from the front: wider than tall
+    with pytest.raises(ValueError, match="up"):
+        V.FramesSource(sheet[None], F, up="w")
+
+
+def test_near_faces_are_the_engines_proximity_faces() -> None:
+    """The viewer's near faces are `Detector.proximity_faces` (what the demo report draws), less the hit ones."""
+    src = V.ClothSource("center", 9)
+    v = V.Viewer(src, "bvh-cones-contour", thickness=src.sim.contact_distance)
+    V.run_frames(v, 30)
+    near = v.detector.proximity_faces()
+    prox = v.detector.last_proximity
+    assert len(prox["vertex_triangle"]) and len(prox["edge_edge"]) and len(near)
+    assert set(prox["vertex_triangle"][:, 1]) <= set(near)
+    edges = v.mesh.edges[prox["edge_edge"].ravel()]
+    for a, b in edges:
+        on = [f for f, tri in enumerate(v.faces) if a in tri and b in tri]
+        assert set(on) <= set(near)
+    expected = np.zeros(len(v.faces), dtype=np.int8)
+    expected[near] = V.NEAR
+    expected[v.pairs.ravel()] = V.HIT
+    np.testing.assert_array_equal(v.face_state, expected)
+    faces, counts = proximity_reference(v.mesh, v.positions[None], v.thickness)
+    np.testing.assert_array_equal(faces[0], near)
+    assert counts[0] == len(prox["vertex_triangle"]) + len(prox["edge_edge"])

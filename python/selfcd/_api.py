@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _arrays, _core
+from . import weld as _weld
 
 DEFAULT_METHOD = "bvh-cones-contour"
 
@@ -22,6 +24,11 @@ def sensor_options() -> list[str]:
     return list(_core.sensor_options())
 
 
+def materials() -> list[str]:
+    """Names of the cloth material presets; the first is the default."""
+    return list(_core.materials())
+
+
 def non_conservative_methods() -> list[str]:
     """Names of the methods that can miss contacts by design (their misses are measured)."""
     return list(_core.non_conservative_methods())
@@ -30,18 +37,52 @@ def non_conservative_methods() -> list[str]:
 class Mesh:
     """A triangle mesh: rest positions and faces, validated once, topology built once.
 
+    Zero-area faces (collinear or coincident corners) are valid: every query
+    counts one as the segment or point it is.
+
     Args:
         vertices: (n, 3) float array, the rest shape.
         faces: (m, 3) integer array of vertex indices.
+        weld: merge vertices at exactly equal positions first (see
+            `selfcd.weld.weld`), for triangle soups such as STL files. Faces
+            keep their order; `vertices` is then the welded array, and
+            positions given for the input's n vertices are accepted by
+            `Detector.detect`, `compare_methods` and `reference_pairs`.
+            Without it, a mesh with distinct vertices at one position gets an
+            `UnweldedMeshWarning`.
 
     Raises:
         TypeError: non-numeric vertices or non-integer faces.
         ValueError: wrong shapes, empty mesh, NaN/inf, index out of range,
-            a face repeating a vertex, duplicate faces, degenerate rest faces.
+            a face repeating a vertex index, duplicate faces.
     """
 
-    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike) -> None:
-        self._inner = _core.Mesh(_arrays.points(vertices, "vertices"), _arrays.faces(faces))
+    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, weld: bool = False) -> None:
+        if not isinstance(weld, (bool, np.bool_)):
+            raise TypeError(f"weld must be a bool, got {type(weld).__name__}")
+        v, f = _arrays.points(vertices, "vertices"), _arrays.faces(faces)
+        self._source: np.ndarray | None = None
+        if weld and len(v) and f.size and f.min() >= 0 and f.max() < len(v):  # bad indices: the engine names them
+            self._n_input = len(v)
+            v, f, self._source = _weld.weld(v, f)
+        elif not weld:
+            _weld.warn_if_unwelded(v, f)
+        self._inner = _core.Mesh(v, f)
+
+    def _positions(self, value: npt.ArrayLike, name: str = "positions") -> np.ndarray:
+        """(n, 3) positions of this mesh; for a welded mesh, positions of the input's vertices are mapped."""
+        arr = _arrays.points(value, name)
+        if self._source is not None and len(arr) == self._n_input and len(arr) != self.n_vertices:
+            arr = arr[self._source]
+        return _arrays.points(arr, name, self.n_vertices)
+
+    def _frames(self, value: npt.ArrayLike) -> np.ndarray:
+        """(f, n, 3) frames of this mesh, mapped like `_positions`."""
+        arr = np.asarray(value)
+        if (self._source is not None and arr.ndim == 3 and arr.shape[1] == self._n_input
+                and arr.shape[1] != self.n_vertices):
+            arr = arr[:, self._source]
+        return _arrays.frames(arr, self.n_vertices)
 
     @property
     def vertices(self) -> np.ndarray:
@@ -74,10 +115,11 @@ class Mesh:
         return self._inner.mean_edge_length
 
     @classmethod
-    def _wrap(cls, inner: _core.Mesh) -> "Mesh":
+    def _wrap(cls, inner: _core.Mesh) -> Mesh:
         """A Mesh around an engine mesh that is already validated."""
         mesh = cls.__new__(cls)
         mesh._inner = inner
+        mesh._source = None
         return mesh
 
     def __repr__(self) -> str:
@@ -93,6 +135,10 @@ class Detector:
             "bvh-cones", "bvh-cones-contour" (default, conservative).
         thickness: when > 0, vertex-triangle and edge-edge pairs closer than
             this are reported in `last_proximity` too.
+        max_contacts: the most proximity contacts one `detect` may collect
+            (default 20 million, about 1.3 GB); beyond it `detect` raises
+            ValueError rather than exhausting memory (a thickness larger than
+            the mesh makes every vertex near every face).
         **method_options: options of the method; "sensor-gated" takes the
             particle sensor's parameters (`selfcd.sensor_options()`: count, a, b,
             n_min, n_max, epsilon, step_gain, max_step, tolerance, inner,
@@ -100,13 +146,17 @@ class Detector:
             raises TypeError.
     """
 
-    def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0, **method_options: Any) -> None:
+    def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0,
+                 max_contacts: int | None = None, **method_options: Any) -> None:
         if not isinstance(mesh, Mesh):
             raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
         if not isinstance(method, str):
             raise TypeError(f"method must be a string, got {type(method).__name__}")
         self.mesh = mesh
-        self._inner = _core.Detector(mesh._inner, method, float(thickness), method_options or None)
+        if max_contacts is not None and _arrays.integer(max_contacts, "max_contacts") < 0:
+            raise ValueError(f"max_contacts must be >= 0, got {max_contacts}")
+        self._inner = _core.Detector(mesh._inner, method, _arrays.number(thickness, "thickness"),
+                                     method_options or None, max_contacts)
 
     @property
     def method(self) -> str:
@@ -125,7 +175,7 @@ class Detector:
             (k, 2) int64 array of face indices, i < j, rows sorted.
         """
         pos = self.mesh.vertices if positions is None else positions
-        return self._inner.detect(_arrays.points(pos, "positions", self.mesh.n_vertices))
+        return self._inner.detect(self.mesh._positions(pos))
 
     def particles(self) -> np.ndarray:
         """Current sensor particle positions, (k, 3) float64; (0, 3) for methods without a sensor."""
@@ -147,14 +197,90 @@ class Detector:
         """
         return self._inner.last_proximity
 
+    def proximity_faces(self) -> np.ndarray:
+        """Faces in the last call's proximity contacts, sorted, int64: the triangle of each
+        vertex-triangle contact and every face on an edge of an edge-edge contact.
+
+        What the viewer and the reports draw as "near"; empty before the first call
+        and when thickness is 0.
+        """
+        prox = self.last_proximity
+        if prox is None:
+            return np.zeros(0, dtype=np.int64)
+        n = np.int64(self.mesh.n_vertices)
+        edges, faces = self.mesh.edges, self.mesh.faces
+        touched = edges[prox["edge_edge"].ravel()]
+        keys = touched[:, 0] * n + touched[:, 1]
+        on_edge = np.zeros(len(faces), dtype=bool)
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            a, b = faces[:, i], faces[:, j]
+            on_edge |= np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
+        return np.union1d(prox["vertex_triangle"][:, 1], np.flatnonzero(on_edge)).astype(np.int64)
+
     def __repr__(self) -> str:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
-def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> np.ndarray:
-    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted."""
-    mesh = Mesh(vertices, faces)
-    return _core.self_intersections(mesh._inner, _arrays.points(vertices))
+def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> np.ndarray:
+    """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.
+
+    Args:
+        vertices: (n, 3) positions.
+        faces: (m, 3) vertex indices.
+        subset: optional face indices; only pairs of two faces in the subset are
+            reported, by their ids in `faces`. Adjacency is still by shared
+            vertex ids, so the answer is the full query's pairs among the subset.
+        weld: merge vertices at exactly equal positions first (see `Mesh`);
+            face indices are unchanged.
+    """
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    if mesh is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    return pairs if ids is None else ids[pairs]
+
+
+def _query_mesh(vertices: npt.ArrayLike, faces: npt.ArrayLike, subset: npt.ArrayLike | None,
+                weld: bool) -> tuple[Mesh | None, np.ndarray | None]:
+    """The mesh a one-shot query runs on: the whole mesh, or the faces of `subset` over the
+    same vertices (so adjacency stays by shared vertex ids) with the subset's sorted ids.
+    The whole mesh is validated either way; None for a subset of fewer than two faces."""
+    whole = Mesh(vertices, faces, weld=weld)
+    if subset is None:
+        return whole, None
+    ids = _arrays.face_ids(subset, whole.n_faces, "subset")
+    if len(ids) < 2:
+        return None, ids
+    return Mesh(vertices, _arrays.faces(faces)[ids], weld=weld), ids
+
+
+def has_self_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                          subset: npt.ArrayLike | None = None, weld: bool = False) -> bool:
+    """Whether any two non-adjacent faces (of `subset`, if given) intersect; exact.
+
+    Same answer as `len(self_intersections(...)) > 0`, but the traversal stops
+    at the first intersecting pair (see `first_intersection`).
+    """
+    return first_intersection(vertices, faces, subset, weld) is not None
+
+
+def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
+                       subset: npt.ArrayLike | None = None, weld: bool = False) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; exact.
+
+    The engine's traversal (boxes only, sequential) stops at the first pair it
+    finds; the pair is the same on every run. Both queries build the hierarchy
+    first, so the saving is the rest of the traversal (BENCHMARKS.md).
+    `subset` and `weld` are as in `self_intersections` (ids in the original
+    numbering).
+    """
+    mesh, ids = _query_mesh(vertices, faces, subset, weld)
+    pair = None if mesh is None else _core.first_intersection(mesh._inner, mesh._positions(vertices, "vertices"))
+    if pair is None:
+        return None
+    a, b = pair
+    return (a, b) if ids is None else (int(ids[a]), int(ids[b]))
 
 
 def continuous_impacts(
@@ -179,7 +305,8 @@ def continuous_impacts(
     """
     n = mesh.n_vertices
     return _core.continuous_impacts(
-        mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n), float(separation)
+        mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n),
+        _arrays.number(separation, "separation")
     )
 
 
@@ -204,14 +331,14 @@ def compare_methods(
         `Detector.last_stats`; "triggered" is int8 with -1 for methods without
         a sensor), "missed" and "spurious" (int64 per frame).
     """
-    arr = _arrays.frames(frames, mesh.n_vertices)
+    arr = mesh._frames(frames)
     names = None if methods is None else list(methods)
-    return _core.compare_methods(mesh._inner, arr, names, float(thickness), progress)
+    return _core.compare_methods(mesh._inner, arr, names, _arrays.number(thickness, "thickness"), progress)
 
 
 def reference_pairs(mesh: Mesh, frames: npt.ArrayLike) -> list[np.ndarray]:
     """Exact intersecting face pairs of each frame, as a list of (k, 2) int64 arrays."""
-    return _core.reference_pairs(mesh._inner, _arrays.frames(frames, mesh.n_vertices))
+    return _core.reference_pairs(mesh._inner, mesh._frames(frames))
 
 
 def paper_scenes() -> list[str]:
@@ -220,8 +347,9 @@ def paper_scenes() -> list[str]:
 
 
 class Simulation:
-    """One of the paper's cloth scenes in motion (mass-spring cloth, implicit Euler,
-    self-collision response driven by a detection method).
+    """A cloth in motion (mass-spring cloth, implicit Euler, self- and obstacle
+    collision response driven by a detection method): one of the paper's scenes,
+    or any mesh with `Simulation.from_mesh`.
 
     Args:
         scene: "two-corners", "corner" or "center" (see `paper_scenes()`).
@@ -236,13 +364,58 @@ class Simulation:
         for name, value in (("scene", scene), ("method", method)):
             if not isinstance(value, str):
                 raise TypeError(f"{name} must be a string, got {type(value).__name__}")
-        if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-            raise TypeError(f"resolution must be an integer, got {type(resolution).__name__}")
+        resolution = _arrays.integer(resolution, "resolution")
         if resolution < 2:
             raise ValueError(f"resolution must be at least 2 vertices per side, got {resolution}")
-        self._inner = _core.Simulation(scene, int(resolution), method, None if dt is None else float(dt),
-                                       bool(self_collision))
+        self._inner = _core.Simulation(scene, resolution, method, None if dt is None else _arrays.number(dt, "dt"),
+                                       _arrays.flag(self_collision, "self_collision"))
         self.mesh = Mesh._wrap(self._inner.mesh)
+
+    @classmethod
+    def from_mesh(cls, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, rest: npt.ArrayLike | None = None,
+                  pins: Any = (), obstacles: Sequence[Any] = (), up: str = "z", material: str = "cotton",
+                  method: str = DEFAULT_METHOD, dt: float | None = None, frame_time: float | None = None,
+                  self_collision: bool = True, friction: float | None = None,
+                  obstacle_friction: float | None = None) -> Simulation:
+        """A cloth over any triangle mesh, starting at `vertices`.
+
+        Args:
+            rest: rest shape with the same triangles (say, a garment's flat pattern); default `vertices`.
+            pins: vertices held fixed: pin specs ("top:FRACTION", "indices:FILE", "box:x0,y0,z0,x1,y1,z1"),
+                vertex ids, or a boolean mask (see `selfcd.scenes.pins`); several are combined.
+            obstacles: meshes the cloth collides with: files, directories of frame files, (V, F)
+                pairs, or (frames (k, n, 3), F) animations (see `selfcd.scenes.obstacle`).
+            up: the up axis, "x", "y" or "z": gravity points down it.
+            material: a preset of `selfcd.materials()` (cotton, silk, denim).
+            dt: time step (s), default 1/60.
+            frame_time: seconds per obstacle keyframe (default: dt).
+            friction, obstacle_friction: Coulomb coefficients of cloth-cloth and
+                cloth-obstacle contacts (default 0.3 and 0.5).
+        """
+        from . import scenes
+
+        v = _arrays.points(vertices, "vertices")
+        f = _arrays.faces(faces)
+        r = None if rest is None else _arrays.points(rest, "rest", len(v))
+        ids = scenes.pins(v, pins, up)
+        obs = [scenes.obstacle(o) for o in obstacles]
+        step = 1.0 / 60.0 if dt is None else float(dt)
+        self = cls.__new__(cls)
+        self._inner = _core.Simulation.from_mesh(
+            v, f, r, ids, obs, step if frame_time is None else float(frame_time), scenes.gravity(up), material,
+            method, dt, bool(self_collision), friction, obstacle_friction)
+        self.mesh = Mesh._wrap(self._inner.mesh)
+        return self
+
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """Positions of every obstacle (merged in order) at the current time, (n, 3); empty without obstacles."""
+        return self._inner.obstacle_positions
+
+    @property
+    def obstacle_faces(self) -> np.ndarray:
+        """Faces of the merged obstacle mesh, (m, 3)."""
+        return self._inner.obstacle_faces
 
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats ("detection" holds the detector's FrameStats)."""
@@ -256,9 +429,12 @@ class Simulation:
             frames (f, n, 3) starting with the current state, their times (f,),
             and per-step stats as arrays ("detection": per-step FrameStats arrays).
         """
+        steps, every = _arrays.integer(steps, "steps"), _arrays.integer(every, "every")
         if steps < 0:
             raise ValueError(f"steps must be >= 0, got {steps}")
-        return self._inner.run(int(steps), int(every), progress)
+        if every < 1:
+            raise ValueError(f"every must be at least 1, got {every}")
+        return self._inner.run(steps, every, progress)
 
     @property
     def positions(self) -> np.ndarray:
@@ -276,13 +452,13 @@ class Simulation:
         return self._inner.pinned
 
     @property
-    def scene(self) -> str:
-        """The scene's name."""
+    def scene(self) -> str | None:
+        """The scene's name (None for `from_mesh`)."""
         return self._inner.scene
 
     @property
-    def resolution(self) -> int:
-        """Vertices per side."""
+    def resolution(self) -> int | None:
+        """Vertices per side (None for `from_mesh`)."""
         return self._inner.resolution
 
     @property
@@ -320,4 +496,6 @@ class Simulation:
         return self._inner.energy()
 
     def __repr__(self) -> str:
+        if self.scene is None:
+            return f"selfcd.Simulation.from_mesh({self.mesh.n_vertices} vertices, method={self.method!r})"
         return f"selfcd.Simulation(scene={self.scene!r}, resolution={self.resolution}, method={self.method!r})"

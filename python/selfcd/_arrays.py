@@ -59,3 +59,41 @@ def frames(value: npt.ArrayLike, n: int, name: str = "frames") -> np.ndarray:
     if arr.ndim != 3 or arr.shape[1:] != (n, 3):
         raise ValueError(f"{name} must have shape (frames, {n}, 3), got {arr.shape}")
     return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def face_ids(value: npt.ArrayLike, n_faces: int, name: str = "subset") -> np.ndarray:
+    """Face ids as a sorted, duplicate-free int64 array, each in [0, n_faces)."""
+    arr = np.asarray(value)
+    if arr.dtype == bool or not (arr.size == 0 or arr.dtype.kind in "iu"):
+        raise TypeError(f"{name} must be an integer array of face ids, got dtype {arr.dtype}")
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
+    ids = np.unique(arr.astype(np.int64))
+    if ids.size and (ids[0] < 0 or ids[-1] >= n_faces):
+        bad = ids[0] if ids[0] < 0 else ids[-1]
+        raise ValueError(f"{name} has face id {bad}, outside 0..{n_faces - 1}")
+    return ids
+
+
+def number(value: object, name: str) -> float:
+    """A real number (int, float or numpy scalar, not bool or str) as float; TypeError otherwise.
+
+    Ranges are checked by the engine, which names the parameter.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    return float(value)
+
+
+def integer(value: object, name: str) -> int:
+    """An integer (int or numpy integer, not bool); TypeError otherwise."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    return int(value)
+
+
+def flag(value: object, name: str) -> bool:
+    """A bool (Python or numpy); TypeError otherwise, so that "no" is not read as True."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
+    return bool(value)

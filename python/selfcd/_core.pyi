@@ -1,6 +1,7 @@
 """Type stubs for the compiled extension `selfcd._core` (crates/selfcd-py)."""
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any, final
 
 import numpy as np
 
@@ -15,10 +16,11 @@ def non_conservative_methods() -> list[str]:
 def sensor_options() -> list[str]:
     """Names of the keyword options the `sensor-gated` method takes."""
 
+@final
 class Mesh:
     """A validated triangle mesh: rest positions, faces, topology."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+    def __new__(cls, vertices: np.ndarray, faces: np.ndarray) -> Mesh:
         """Validates an (n,3) float64 vertex array and an (m,3) int64 face array."""
     @property
     def vertices(self) -> np.ndarray:
@@ -39,12 +41,14 @@ class Mesh:
     def mean_edge_length(self) -> float:
         """Mean rest edge length."""
 
+@final
 class Detector:
     """One detection method on one mesh, keeping its state between calls."""
 
-    def __init__(self, mesh: Mesh, method: str, thickness: float = 0.0,
-                 options: dict[str, Any] | None = None) -> None:
-        """Builds the detector; `options` are the method's keyword options."""
+    def __new__(cls, mesh: Mesh, method: str, thickness: float = 0.0,
+                 options: dict[str, Any] | None = None, max_contacts: int | None = None) -> Detector:
+        """Builds the detector; `options` are the method's keyword options; `max_contacts`
+        limits the proximity contacts of one call (ValueError beyond it)."""
     def detect(self, positions: np.ndarray) -> np.ndarray:
         """Intersecting face pairs at (n,3) float64 `positions`: (k,2) int64, sorted, i<j."""
     def particles(self) -> np.ndarray:
@@ -68,6 +72,9 @@ class Detector:
 def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
     """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
 
+def first_intersection(mesh: Mesh, positions: np.ndarray) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None; stops at the first found."""
+
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, separation: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `separation` during the linear step x0 -> x1, with times of impact."""
 
@@ -87,12 +94,31 @@ def deform(rest: np.ndarray, shape: str, **params: float) -> np.ndarray:
 def paper_scenes() -> list[str]:
     """Names of the paper's cloth scenes, in the paper's order."""
 
+def materials() -> list[str]:
+    """Names of the cloth material presets (the first is the default)."""
+
+@final
 class Simulation:
     """One of the paper's cloth scenes in motion, stepped with a detection method."""
 
-    def __init__(self, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
-                 dt: float | None = None, self_collision: bool = True) -> None:
+    def __new__(cls, scene: str, resolution: int = 11, method: str = "bvh-cones-contour",
+                 dt: float | None = None, self_collision: bool = True) -> Simulation:
         """Builds the scene's cloth and simulator."""
+    @staticmethod
+    def from_mesh(vertices: np.ndarray, faces: np.ndarray, rest: np.ndarray | None = None,
+                  pins: np.ndarray | None = None, obstacles: list[tuple[np.ndarray, np.ndarray]] = ...,
+                  frame_time: float = ..., gravity: tuple[float, float, float] = ...,
+                  material: str = "cotton", method: str = "bvh-cones-contour", dt: float | None = None,
+                  self_collision: bool = True, friction: float | None = None,
+                  obstacle_friction: float | None = None) -> Simulation:
+        """A cloth over any mesh, with pins (vertex ids) and obstacles ((keyframes (k,n,3), faces));
+        defaults: no obstacles, frame_time 1/60 s, gravity (0, 0, -9.81)."""
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """Obstacle positions (merged) at the current time, (n,3)."""
+    @property
+    def obstacle_faces(self) -> np.ndarray:
+        """Faces of the merged obstacle mesh, (m,3)."""
     def step(self) -> dict[str, Any]:
         """Advances one time step; returns its stats."""
     def run(self, steps: int, every: int = 1, progress: Callable[[int], object] | None = None
@@ -111,11 +137,11 @@ class Simulation:
     def pinned(self) -> np.ndarray:
         """Pinned vertices, (n,) bool."""
     @property
-    def scene(self) -> str:
-        """The scene's name."""
+    def scene(self) -> str | None:
+        """The scene's name (None for a mesh)."""
     @property
-    def resolution(self) -> int:
-        """Vertices per side."""
+    def resolution(self) -> int | None:
+        """Vertices per side (None for a mesh)."""
     @property
     def method(self) -> str:
         """The detection method driving the response."""
@@ -147,10 +173,11 @@ def bench_scaling(sizes: list[int], states: list[str], methods: list[str], reps:
 def sensor_defaults() -> dict[str, Any]:
     """Default values of the particle sensor's options, as a dict."""
 
+@final
 class Hierarchy:
     """The bottom-up BVH of one mesh (as the BVH detectors build it), refitted on demand."""
 
-    def __init__(self, mesh: Mesh) -> None:
+    def __new__(cls, mesh: Mesh) -> Hierarchy:
         """Builds the hierarchy of `mesh` on its rest shape."""
     def refit(self, positions: np.ndarray) -> None:
         """Refits every box and cone to (n,3) float64 positions."""

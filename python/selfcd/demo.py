@@ -13,9 +13,10 @@ counted too.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -140,7 +141,7 @@ def proximity_reference(mesh: _api.Mesh, frames: np.ndarray, thickness: float) -
         det.detect(f)
         prox = det.last_proximity
         counts.append(len(prox["vertex_triangle"]) + len(prox["edge_edge"]))
-        faces.append(np.unique(prox["vertex_triangle"][:, 1]))
+        faces.append(det.proximity_faces())
     return faces, np.asarray(counts, dtype=np.int64)
 
 

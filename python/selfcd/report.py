@@ -197,7 +197,7 @@ vertical-align:middle;margin:0 0.3em 0 1em;border:1px solid #999}
 """
 
 
-def _div(fig: go.Figure, div_id: str) -> str:
+def figure_div(fig: go.Figure, div_id: str) -> str:
     return pio.to_html(fig, include_plotlyjs=False, full_html=False, div_id=div_id,
                        config={"displaylogo": False, "responsive": True})
 
@@ -213,12 +213,12 @@ def _scene_section(k: int, result: SceneResult, summary: dict[str, Any], colors:
 {s['frame_dt'] * 1e3:.1f} ms apart; {s['frames_in_proximity']} frames with proximity contacts (at most
 {s['max_proximity_contacts']}), {s['frames_intersecting']} frames with intersecting triangles (at most
 {s['max_intersecting_pairs']} pairs).</p>
-<div class="chart">{_div(benchmark_figure(result, colors), f"bench-{k}")}</div>
+<div class="chart">{figure_div(benchmark_figure(result, colors), f"bench-{k}")}</div>
 <h3>Playback</h3>
 <p class="legend"><span style="background:{CLOTH}"></span>cloth <span style="background:{NEAR}"></span>proximity
 contact (closer than {s['proximity_thickness']:.3g} m) <span style="background:{CONTACT}"></span>intersecting
 <span style="background:#2ca02c"></span>sensor particles. The title names the methods that missed contacts in the frame.</p>
-<div class="view3d">{_div(playback_figure(result), f"view-{k}")}</div>
+<div class="view3d">{figure_div(playback_figure(result), f"view-{k}")}</div>
 </section>"""
 
 

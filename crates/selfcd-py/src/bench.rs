@@ -6,7 +6,7 @@ use crate::errors::{engine_err, guard};
 use crate::stats::stats_dict;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use selfcd::bench::{scaling, ScalingRow};
+use selfcd::bench::{scaling_until, ScalingRow};
 use selfcd::scene::BenchState;
 
 /// Names of the benchmark's states, in report order.
@@ -40,15 +40,16 @@ pub fn bench_scaling<'py>(
     let mut cb_err: Option<PyErr> = None;
     let rows = py.detach(|| {
         guard("bench_scaling", || {
-            scaling(&sizes, &states, &methods, reps, |_| {
+            scaling_until(&sizes, &states, &methods, reps, |_| {
                 done += 1;
-                crate::compare::report(&progress, done, &mut cb_err);
+                crate::compare::report(&progress, done, &mut cb_err)
             })
         })
-    })?;
+    });
     if let Some(e) = cb_err {
         return Err(e);
     }
+    let rows = rows?;
     let out = PyList::empty(py);
     for r in &rows {
         out.append(row_dict(py, r)?)?;

@@ -1,16 +1,18 @@
 //! The cloth simulator (engine `cloth`): the paper's scenes and `Simulation`.
 
-use crate::convert::points_array;
+use crate::convert::{frames, points, points_array, triangles, triples};
 use crate::detector::parse_method;
 use crate::errors::{engine_err, guard};
 use crate::mesh::PyMesh;
 use crate::stats::{stats_columns, stats_dict};
-use numpy::{PyArray1, PyArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use selfcd::cloth::{Material, PaperScene, SimOptions, Simulation, StepStats};
-use selfcd::DVec3;
+use selfcd::cloth::obstacle::{Obstacle, Obstacles};
+use selfcd::cloth::{Cloth, Material, PaperScene, SimOptions, Simulation, StepStats};
+use selfcd::{DVec3, Mesh};
+use std::sync::Arc;
 use std::sync::{Mutex, MutexGuard};
 
 /// Names of the paper's cloth scenes, in the paper's order.
@@ -19,13 +21,20 @@ pub fn paper_scenes() -> Vec<&'static str> {
     PaperScene::ALL.iter().map(|s| s.name()).collect()
 }
 
+/// Names of the cloth material presets (the first is the default).
+#[pyfunction]
+pub fn materials() -> Vec<&'static str> {
+    Material::PRESETS.iter().map(|(n, _)| *n).collect()
+}
+
 /// Scalar fields of StepStats (the detection stats are kept apart).
-fn step_fields(s: &StepStats) -> [(&'static str, f64); 16] {
+fn step_fields(s: &StepStats) -> [(&'static str, f64); 19] {
     [
         ("iterations", s.iterations as f64),
         ("residual", s.residual),
         ("contacts", s.contacts as f64),
         ("vertex_triangle", s.vertex_triangle as f64),
+        ("obstacle_contacts", s.obstacle_contacts as f64),
         ("constrained", s.constrained as f64),
         ("impulses", s.impulses as f64),
         ("ccd_rounds", s.ccd_rounds as f64),
@@ -34,8 +43,10 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 16] {
         ("zones", s.zones as f64),
         ("correction_rounds", s.correction_rounds as f64),
         ("intersections", s.intersections as f64),
+        ("obstacle_intersections", s.obstacle_intersections as f64),
         ("solve_time", s.solve_time),
         ("detect_time", s.detect_time),
+        ("obstacle_time", s.obstacle_time),
         ("response_time", s.response_time),
         ("step_time", s.step_time),
     ]
@@ -45,7 +56,7 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 16] {
 fn is_count(name: &str) -> bool {
     !matches!(
         name,
-        "residual" | "solve_time" | "detect_time" | "response_time" | "step_time"
+        "residual" | "solve_time" | "detect_time" | "obstacle_time" | "response_time" | "step_time"
     )
 }
 
@@ -83,13 +94,16 @@ fn step_columns<'py>(py: Python<'py>, steps: &[StepStats]) -> PyResult<Bound<'py
     Ok(d)
 }
 
-/// A cloth in motion: one of the paper's scenes, stepped with a detection method.
+/// A cloth in motion: one of the paper's scenes or any mesh, stepped with a detection method.
 #[pyclass(name = "Simulation", module = "selfcd._core", frozen)]
 pub struct PySimulation {
     sim: Mutex<Simulation>,
-    scene: PaperScene,
-    resolution: usize,
+    /// The paper's scene and its resolution, for scenes.
+    scene: Option<(PaperScene, usize)>,
 }
+
+/// One obstacle from Python: keyframes (k, n, 3) and faces (m, 3).
+type PyObstacle<'py> = (PyReadonlyArray3<'py, f64>, PyReadonlyArray2<'py, i64>);
 
 impl PySimulation {
     fn lock(&self) -> PyResult<MutexGuard<'_, Simulation>> {
@@ -101,6 +115,9 @@ impl PySimulation {
 
 /// Frames recorded by `Simulation.run`, and every step's stats.
 type Recording = (Vec<Vec<DVec3>>, Vec<f64>, Vec<StepStats>);
+
+/// An obstacle's keyframes and triangles, converted from numpy.
+type ObstacleFrames = (Vec<Vec<DVec3>>, Vec<[u32; 3]>);
 
 #[pymethods]
 impl PySimulation {
@@ -126,9 +143,106 @@ impl PySimulation {
         })?;
         Ok(PySimulation {
             sim: Mutex::new(sim),
-            scene: sc,
-            resolution,
+            scene: Some((sc, resolution)),
         })
+    }
+
+    /// A cloth over any mesh: rest shape `rest` (default: `vertices`), starting at
+    /// `vertices`, with `pins` (vertex ids) fixed, `gravity` (m/s^2), material
+    /// preset `material`, and `obstacles`: (keyframes (k, n, 3), faces) played
+    /// at `frame_time` seconds per keyframe.
+    #[staticmethod]
+    #[pyo3(signature = (vertices, faces, rest = None, pins = None, obstacles = Vec::new(), frame_time = 1.0 / 60.0,
+        gravity = (0.0, 0.0, -9.81), material = "cotton", method = "bvh-cones-contour", dt = None,
+        self_collision = true, friction = None, obstacle_friction = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_mesh(
+        vertices: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, i64>,
+        rest: Option<PyReadonlyArray2<'_, f64>>,
+        pins: Option<PyReadonlyArray1<'_, i64>>,
+        obstacles: Vec<PyObstacle<'_>>,
+        frame_time: f64,
+        gravity: (f64, f64, f64),
+        material: &str,
+        method: &str,
+        dt: Option<f64>,
+        self_collision: bool,
+        friction: Option<f64>,
+        obstacle_friction: Option<f64>,
+    ) -> PyResult<Self> {
+        let m = parse_method(method)?;
+        let start = points(&vertices, "vertices")?;
+        let rest = match rest {
+            Some(r) => triples(&r, "rest")?,
+            None => start.iter().map(|p| p.to_array()).collect(),
+        };
+        let tris = triangles(&faces)?;
+        let pins: Vec<u32> = match pins {
+            Some(p) => p
+                .as_array()
+                .iter()
+                .map(|&i| {
+                    u32::try_from(i)
+                        .map_err(|_| PyValueError::new_err(format!("pin {i} is not a vertex id")))
+                })
+                .collect::<PyResult<_>>()?,
+            None => Vec::new(),
+        };
+        let parts: Vec<ObstacleFrames> = obstacles
+            .iter()
+            .map(|(v, f)| Ok((frames(v)?, triangles(f)?)))
+            .collect::<PyResult<_>>()?;
+        let sim = guard("Simulation.from_mesh()", || {
+            let mut cloth = Cloth::new(
+                Arc::new(Mesh::new(rest, tris)?),
+                Material::preset(material)?,
+                &pins,
+            )?;
+            cloth.set_gravity(DVec3::from(gravity))?;
+            let mut opts = SimOptions::for_cloth(&cloth);
+            opts.dt = dt.unwrap_or(opts.dt);
+            opts.self_collision = self_collision;
+            opts.contact.friction = friction.unwrap_or(opts.contact.friction);
+            opts.contact.obstacle_friction =
+                obstacle_friction.unwrap_or(opts.contact.obstacle_friction);
+            let mut sim = Simulation::new(cloth, m, opts)?;
+            sim.set_state(start, vec![DVec3::ZERO; sim.positions().len()])?;
+            if !parts.is_empty() {
+                let obs = parts
+                    .into_iter()
+                    .map(|(k, f)| {
+                        Obstacle::animated(
+                            k.into_iter()
+                                .map(|p| p.iter().map(|q| q.to_array()).collect())
+                                .collect(),
+                            f,
+                            frame_time,
+                        )
+                    })
+                    .collect::<selfcd::Result<Vec<_>>>()?;
+                sim.set_obstacles(Some(Obstacles::new(obs)?));
+            }
+            Ok(sim)
+        })?;
+        Ok(PySimulation {
+            sim: Mutex::new(sim),
+            scene: None,
+        })
+    }
+
+    /// Obstacle positions (all obstacles merged, in order) at the current time, (n, 3).
+    #[getter]
+    fn obstacle_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        points_array(py, &self.lock()?.obstacle_positions())
+    }
+
+    /// Faces of the merged obstacle mesh, (m, 3) int64 (empty without obstacles).
+    #[getter]
+    fn obstacle_faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock()?;
+        let tris = sim.obstacles().map_or(&[][..], |o| o.mesh().triangles());
+        crate::convert::rows_array(py, tris.iter().map(|t| t.map(i64::from)))
     }
 
     /// Advances one time step; returns its stats (a dict, `detection` holding the FrameStats).
@@ -165,8 +279,7 @@ impl PySimulation {
                     frames.push(sim.positions().to_vec());
                     times.push(sim.time());
                 }
-                crate::compare::report(&progress, k, &mut cb_err);
-                if cb_err.is_some() {
+                if crate::compare::report(&progress, k, &mut cb_err).is_err() {
                     break;
                 }
             }
@@ -213,16 +326,16 @@ impl PySimulation {
         Ok(PyArray1::from_vec(py, self.lock()?.cloth().pinned().to_vec()).into_any())
     }
 
-    /// The scene's name.
+    /// The scene's name (None for a mesh).
     #[getter]
-    fn scene(&self) -> &'static str {
-        self.scene.name()
+    fn scene(&self) -> Option<&'static str> {
+        self.scene.map(|(s, _)| s.name())
     }
 
-    /// Vertices per side.
+    /// Vertices per side (None for a mesh).
     #[getter]
-    fn resolution(&self) -> usize {
-        self.resolution
+    fn resolution(&self) -> Option<usize> {
+        self.scene.map(|(_, n)| n)
     }
 
     /// The detection method driving the collision response.
@@ -272,12 +385,14 @@ impl PySimulation {
         Ok(d)
     }
 
-    fn __repr__(&self) -> String {
-        format!(
-            "Simulation(scene={:?}, resolution={})",
-            self.scene.name(),
-            self.resolution
-        )
+    fn __repr__(&self) -> PyResult<String> {
+        Ok(match self.scene {
+            Some((s, n)) => format!("Simulation(scene={:?}, resolution={n})", s.name()),
+            None => format!(
+                "Simulation(mesh with {} vertices)",
+                self.lock()?.positions().len()
+            ),
+        })
     }
 }
 

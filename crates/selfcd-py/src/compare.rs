@@ -35,21 +35,25 @@ pub fn compare_methods<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let list = parse_methods(methods)?;
-    let opts = DetectorOptions { thickness, ..Default::default() };
+    let opts = DetectorOptions {
+        thickness,
+        ..Default::default()
+    };
     opts.validate().map_err(crate::errors::engine_err)?;
     let fr = crate::convert::frames(&frames)?;
     let m = mesh.inner.clone();
     let mut callback_err: Option<PyErr> = None;
     let runs = py.detach(|| {
         guard("compare_methods", || {
-            compare::compare_methods(&m, &fr, &list, &opts, |done| {
+            compare::compare_methods_until(&m, &fr, &list, &opts, |done| {
                 report(&progress, done, &mut callback_err)
             })
         })
-    })?;
+    });
     if let Some(e) = callback_err {
         return Err(e);
     }
+    let runs = runs?;
     let out = PyList::empty(py);
     for run in runs {
         let d = PyDict::new(py);
@@ -69,12 +73,22 @@ pub fn compare_methods<'py>(
     Ok(out)
 }
 
-/// Calls the Python progress callback (re-taking the GIL); keeps its first error.
-pub fn report(cb: &Option<Py<PyAny>>, done: usize, err: &mut Option<PyErr>) {
-    if let (Some(cb), None) = (cb, &err) {
-        if let Err(e) = Python::attach(|py| cb.call1(py, (done,)).map(|_| ())) {
-            *err = Some(e);
-        }
+/// Between steps of a long call: re-takes the GIL, runs Python's signal
+/// handlers (Ctrl-C raises KeyboardInterrupt here) and then the progress
+/// callback, if any; keeps the first error. Returns [`selfcd::Error::Interrupted`]
+/// once there is one, so an engine loop stops at once (the caller raises `err`).
+pub fn report(cb: &Option<Py<PyAny>>, done: usize, err: &mut Option<PyErr>) -> selfcd::Result<()> {
+    if err.is_none() {
+        let r = Python::attach(|py| {
+            py.check_signals()?;
+            cb.as_ref()
+                .map_or(Ok(()), |cb| cb.call1(py, (done,)).map(|_| ()))
+        });
+        *err = r.err();
+    }
+    match err {
+        Some(_) => Err(selfcd::Error::Interrupted),
+        None => Ok(()),
     }
 }
 

@@ -117,18 +117,22 @@ impl PyDetector {
 impl PyDetector {
     /// Builds the detector (its BVH, and sensor for sensor-gated) for `mesh`.
     #[new]
-    #[pyo3(signature = (mesh, method, thickness = 0.0, options = None))]
+    #[pyo3(signature = (mesh, method, thickness = 0.0, options = None, max_contacts = None))]
     fn new(
         py: Python<'_>,
         mesh: &PyMesh,
         method: &str,
         thickness: f64,
         options: Option<&Bound<'_, PyDict>>,
+        max_contacts: Option<usize>,
     ) -> PyResult<Self> {
         let m = parse_method(method)?;
         let opts = build_options(m, thickness, options)?;
         let arc = mesh.inner.clone();
-        let det = py.detach(|| guard("Detector()", || selfcd::new_detector(arc, m, &opts)))?;
+        let mut det = py.detach(|| guard("Detector()", || selfcd::new_detector(arc, m, &opts)))?;
+        if let Some(max) = max_contacts {
+            det.set_max_contacts(max);
+        }
         Ok(PyDetector {
             det: Mutex::new(det),
             last: Mutex::new(None),

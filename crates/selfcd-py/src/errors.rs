@@ -1,12 +1,18 @@
 //! Engine errors and panics turned into Python exceptions.
 
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::PyErr;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-/// Engine error -> `ValueError` carrying the engine's message.
+/// Engine error -> `ValueError` carrying the engine's message; an allocation
+/// failure -> `MemoryError` (with the size asked for); an interrupted call ->
+/// `KeyboardInterrupt`.
 pub fn engine_err(e: selfcd::Error) -> PyErr {
-    PyValueError::new_err(e.to_string())
+    match e {
+        selfcd::Error::OutOfMemory { .. } => PyMemoryError::new_err(e.to_string()),
+        selfcd::Error::Interrupted => PyKeyboardInterrupt::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
 }
 
 /// Runs `f`, turning a panic into a `RuntimeError` so it never unwinds into Python.

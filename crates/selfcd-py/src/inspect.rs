@@ -23,7 +23,9 @@ pub struct PyHierarchy {
 
 impl PyHierarchy {
     fn lock(&self) -> PyResult<MutexGuard<'_, Bvh>> {
-        self.bvh.lock().map_err(|_| PyRuntimeError::new_err("hierarchy is unusable after an internal error"))
+        self.bvh
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("hierarchy is unusable after an internal error"))
     }
 
     /// Ids of the cut at `depth`: nodes `depth` levels below the root, and
@@ -53,7 +55,11 @@ impl PyHierarchy {
                 depths[c as usize] = depths[n as usize] + 1;
             }
         }
-        Ok(PyHierarchy { bvh: Mutex::new(bvh), mesh: mesh.inner.clone(), depths })
+        Ok(PyHierarchy {
+            bvh: Mutex::new(bvh),
+            mesh: mesh.inner.clone(),
+            depths,
+        })
     }
 
     /// Refits every box and cone to (n,3) float64 `positions`.
@@ -98,14 +104,20 @@ impl PyHierarchy {
                 b.min.to_array().into_iter().chain(b.max.to_array())
             })
             .collect();
-        Ok(PyArray1::from_vec(py, flat).reshape([cut.len(), 2, 3])?.into_any())
+        Ok(PyArray1::from_vec(py, flat)
+            .reshape([cut.len(), 2, 3])?
+            .into_any())
     }
 
     /// For each node of the cut at `depth` (same order as `boxes`): is its normal
     /// cone under 90 degrees, so that the cone test alone culls its self-test, (k,) bool.
     fn positive_cones<'py>(&self, py: Python<'py>, depth: u32) -> PyResult<Bound<'py, PyAny>> {
         let bvh = self.lock()?;
-        let flags = self.cut(&bvh, depth).iter().map(|&n| bvh.cones[n as usize].is_positive()).collect();
+        let flags = self
+            .cut(&bvh, depth)
+            .iter()
+            .map(|&n| bvh.cones[n as usize].is_positive())
+            .collect();
         Ok(PyArray1::from_vec(py, flags).into_any())
     }
 }

@@ -2,8 +2,9 @@
 //!
 //! Thin by design: arrays cross the boundary whole (numpy in, numpy out),
 //! every long call releases the GIL, engine errors become `ValueError` with the
-//! engine's message, and a panic (which the engine should never raise) becomes
-//! a `RuntimeError` instead of unwinding into the interpreter.
+//! engine's message (`MemoryError` for an allocation failure, `KeyboardInterrupt`
+//! for Ctrl-C during a long call), and a panic (which the engine should never
+//! raise) becomes a `RuntimeError` instead of unwinding into the interpreter.
 
 mod bench;
 mod cloth;
@@ -51,10 +52,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mesh::PyMesh>()?;
     m.add_class::<cloth::PySimulation>()?;
     m.add_function(wrap_pyfunction!(cloth::paper_scenes, m)?)?;
+    m.add_function(wrap_pyfunction!(cloth::materials, m)?)?;
     m.add_class::<detector::PyDetector>()?;
     m.add_class::<inspect::PyHierarchy>()?;
     m.add_function(wrap_pyfunction!(inspect::sensor_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::first_intersection, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::continuous_impacts, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;
     m.add_function(wrap_pyfunction!(compare::reference_pairs, m)?)?;

@@ -93,6 +93,24 @@ pub fn self_intersections<'py>(
     pairs_array(py, &pairs)
 }
 
+/// Early-exit query: some intersecting non-adjacent face pair `(i, j)`, i < j,
+/// or None; stops the traversal at the first one found.
+#[pyfunction]
+pub fn first_intersection(
+    mesh: &PyMesh,
+    positions: PyReadonlyArray2<'_, f64>,
+) -> PyResult<Option<(u32, u32)>> {
+    let p = points(&positions, "positions")?;
+    let m = mesh.inner.clone();
+    let py = positions.py();
+    let pair = py.detach(|| {
+        guard("first_intersection", || {
+            selfcd::detect::first::first_intersection(&m, &p)
+        })
+    })?;
+    Ok(pair.map(|[a, b]| (a, b)))
+}
+
 /// Continuous query: every vertex-triangle and edge-edge pair that comes within
 /// `separation` while the mesh moves linearly from `x0` to `x1`, as a dict of
 /// (k,2) int64 pairs and (k,) float64 conservative times of impact in [0, 1].
@@ -119,9 +137,21 @@ pub fn continuous_impacts<'py>(
         ElementPair::VertexTriangle(x, y) | ElementPair::EdgeEdge(x, y) => [x as i64, y as i64],
     };
     let d = PyDict::new(py);
-    d.set_item("vertex_triangle", rows_array(py, found.vertex_triangle.iter().map(ids))?)?;
-    d.set_item("vertex_triangle_toi", PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)))?;
-    d.set_item("edge_edge", rows_array(py, found.edge_edge.iter().map(ids))?)?;
-    d.set_item("edge_edge_toi", PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)))?;
+    d.set_item(
+        "vertex_triangle",
+        rows_array(py, found.vertex_triangle.iter().map(ids))?,
+    )?;
+    d.set_item(
+        "vertex_triangle_toi",
+        PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)),
+    )?;
+    d.set_item(
+        "edge_edge",
+        rows_array(py, found.edge_edge.iter().map(ids))?,
+    )?;
+    d.set_item(
+        "edge_edge_toi",
+        PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)),
+    )?;
     Ok(d)
 }

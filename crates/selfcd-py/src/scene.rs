@@ -45,6 +45,17 @@ fn num(params: Option<&Bound<'_, PyDict>>, key: &str, default: f64) -> PyResult<
     }
 }
 
+/// A whole-number parameter (layers, seed) given as a number: must be an integer >= 0.
+fn count(v: f64, key: &str) -> PyResult<usize> {
+    if v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v < 2f64.powi(53) {
+        Ok(v as usize)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "shape parameter {key} must be a whole number >= 0, got {v}"
+        )))
+    }
+}
+
 /// The parameter names each shape takes.
 fn shape_keys(shape: &str) -> Option<&'static [&'static str]> {
     Some(match shape {
@@ -84,13 +95,13 @@ fn deformation(shape: &str, params: Option<&Bound<'_, PyDict>>) -> PyResult<Defo
             radius: p("radius", 0.05)?,
         },
         "zfold" => Deformation::ZFold {
-            layers: p("layers", 3.0)?.max(1.0) as usize,
+            layers: count(p("layers", 3.0)?, "layers")?,
             gap: p("gap", 0.02)?,
         },
         "crumple" => Deformation::Crumple {
             amplitude: p("amplitude", 0.1)?,
             wavelength: p("wavelength", 0.5)?,
-            seed: p("seed", 1.0)? as u64,
+            seed: count(p("seed", 1.0)?, "seed")? as u64,
         },
         "twist" => Deformation::Twist {
             turns: p("turns", 0.5)?,
@@ -101,7 +112,7 @@ fn deformation(shape: &str, params: Option<&Bound<'_, PyDict>>) -> PyResult<Defo
         },
         _ => Deformation::Noise {
             amplitude: p("amplitude", 0.01)?,
-            seed: p("seed", 1.0)? as u64,
+            seed: count(p("seed", 1.0)?, "seed")? as u64,
         },
     })
 }
@@ -118,6 +129,7 @@ pub fn deform<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let r = points(&rest, "rest")?;
     let d = deformation(shape, params)?;
+    d.validate().map_err(crate::errors::engine_err)?;
     let out = py.detach(|| guard("deform", || Ok(d.apply(&r))))?;
     points_array(py, &out)
 }

@@ -30,6 +30,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("contour_fails", U(s.contour_fails)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("primitive_tests", U(s.primitive_tests)),
+        ("filter_decisions", U(s.filter_decisions)),
         ("proximity_tests", U(s.proximity_tests)),
         ("contacts", U(s.contacts)),
         ("proximity_contacts", U(s.proximity_contacts)),

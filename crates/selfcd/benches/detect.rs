@@ -20,20 +20,28 @@ fn mesh(size: usize) -> (Arc<Mesh>, usize) {
 
 fn bench_build_refit(c: &mut Criterion) {
     let mut g = c.benchmark_group("bvh");
-    g.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(500));
     for size in SIZES {
         let (m, side) = mesh(size);
-        g.bench_with_input(BenchmarkId::new("build", size), &m, |b, m| b.iter(|| build(m)));
+        g.bench_with_input(BenchmarkId::new("build", size), &m, |b, m| {
+            b.iter(|| build(m))
+        });
         let mut bvh = build(&m);
         let p = BenchState::Crumpled.deformation(side).apply(m.rest());
-        g.bench_with_input(BenchmarkId::new("refit", size), &p, |b, p| b.iter(|| bvh.refit(&m, p)));
+        g.bench_with_input(BenchmarkId::new("refit", size), &p, |b, p| {
+            b.iter(|| bvh.refit(&m, p))
+        });
     }
     g.finish();
 }
 
 fn bench_detect(c: &mut Criterion) {
     let mut g = c.benchmark_group("detect");
-    g.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(500));
     for size in SIZES {
         let (m, side) = mesh(size);
         for state in BenchState::ALL {

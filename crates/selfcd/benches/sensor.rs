@@ -32,17 +32,32 @@ fn square(side: usize) -> Arc<Mesh> {
 
 /// Quiet shapes: nothing collides.
 fn quiet_shapes(mesh: &Mesh) -> Vec<(&'static str, Vec<DVec3>)> {
-    let wave = mesh.rest().iter().map(|p| *p + DVec3::Z * (0.05 * (2.0 * PI * (p.x + 0.5 * p.y)).sin())).collect();
+    let wave = mesh
+        .rest()
+        .iter()
+        .map(|p| *p + DVec3::Z * (0.05 * (2.0 * PI * (p.x + 0.5 * p.y)).sin()))
+        .collect();
     vec![
         ("flat", mesh.rest().to_vec()),
         ("wave", wave),
-        ("twist", Deformation::Twist { turns: 0.5 }.apply(mesh.rest())),
+        (
+            "twist",
+            Deformation::Twist { turns: 0.5 }.apply(mesh.rest()),
+        ),
     ]
 }
 
 /// A detector that has seen `pos` for 300 frames, so its particles have settled.
-fn settled(mesh: &Arc<Mesh>, method: Method, sensor: SensorParams, pos: &[DVec3]) -> Box<dyn Detector> {
-    let opts = DetectorOptions { sensor, ..Default::default() };
+fn settled(
+    mesh: &Arc<Mesh>,
+    method: Method,
+    sensor: SensorParams,
+    pos: &[DVec3],
+) -> Box<dyn Detector> {
+    let opts = DetectorOptions {
+        sensor,
+        ..Default::default()
+    };
     let mut d = new_detector(mesh.clone(), method, &opts).unwrap();
     for _ in 0..300 {
         d.detect(pos).unwrap();
@@ -51,7 +66,10 @@ fn settled(mesh: &Arc<Mesh>, method: Method, sensor: SensorParams, pos: &[DVec3]
 }
 
 fn eager() -> SensorParams {
-    SensorParams { refit_every_frame: true, ..Default::default() }
+    SensorParams {
+        refit_every_frame: true,
+        ..Default::default()
+    }
 }
 
 /// Median seconds of `f` over `reps` runs.
@@ -69,31 +87,50 @@ fn median_time(reps: usize, mut f: impl FnMut()) -> f64 {
 
 fn quiet_criterion(c: &mut Criterion) {
     let mut g = c.benchmark_group("sensor_quiet");
-    g.warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2)).sample_size(20);
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(20);
     for side in SIDES {
         let mesh = square(side);
         let n = mesh.n_triangles();
         for (name, pos) in quiet_shapes(&mesh) {
             let id = |m: &str| BenchmarkId::new(m, format!("{name}/{n}"));
-            let mut bvh = settled(&mesh, Method::BvhConesContour, SensorParams::default(), &pos);
-            g.bench_function(id("bvh-cones-contour"), |b| b.iter(|| bvh.detect(&pos).unwrap()));
+            let mut bvh = settled(
+                &mesh,
+                Method::BvhConesContour,
+                SensorParams::default(),
+                &pos,
+            );
+            g.bench_function(id("bvh-cones-contour"), |b| {
+                b.iter(|| bvh.detect(&pos).unwrap())
+            });
             let mut sensor = Sensor::new(mesh.clone(), SensorParams::default()).unwrap();
             for _ in 0..300 {
                 sensor.relax(&pos).unwrap();
             }
             // The public relax checks every position (O(n)); the detector's does not repeat that check.
-            g.bench_function(id("sensor-relax-with-position-check"), |b| b.iter(|| sensor.relax(&pos).unwrap()));
+            g.bench_function(id("sensor-relax-with-position-check"), |b| {
+                b.iter(|| sensor.relax(&pos).unwrap())
+            });
             let mut gated = settled(&mesh, Method::SensorGated, SensorParams::default(), &pos);
-            g.bench_function(id("sensor-gated"), |b| b.iter(|| gated.detect(&pos).unwrap()));
+            g.bench_function(id("sensor-gated"), |b| {
+                b.iter(|| gated.detect(&pos).unwrap())
+            });
             let mut gated_eager = settled(&mesh, Method::SensorGated, eager(), &pos);
-            g.bench_function(id("sensor-gated-refit-every-frame"), |b| b.iter(|| gated_eager.detect(&pos).unwrap()));
+            g.bench_function(id("sensor-gated-refit-every-frame"), |b| {
+                b.iter(|| gated_eager.detect(&pos).unwrap())
+            });
         }
     }
     g.finish();
 }
 
 /// Median of `stat` over 201 frames of `det` at `pos`, and the last frame's stats.
-fn median_stat(det: &mut dyn Detector, pos: &[DVec3], stat: impl Fn(&FrameStats) -> f64) -> (f64, FrameStats) {
+fn median_stat(
+    det: &mut dyn Detector,
+    pos: &[DVec3],
+    stat: impl Fn(&FrameStats) -> f64,
+) -> (f64, FrameStats) {
     let mut v = Vec::with_capacity(201);
     let mut last = FrameStats::default();
     for _ in 0..201 {
@@ -112,7 +149,12 @@ fn quiet_table() {
     for side in SIDES {
         let mesh = square(side);
         for (name, pos) in quiet_shapes(&mesh) {
-            let mut bvh = settled(&mesh, Method::BvhConesContour, SensorParams::default(), &pos);
+            let mut bvh = settled(
+                &mesh,
+                Method::BvhConesContour,
+                SensorParams::default(),
+                &pos,
+            );
             let t_bvh = median_time(201, || drop(bvh.detect(&pos).unwrap()));
             let mut gated = settled(&mesh, Method::SensorGated, SensorParams::default(), &pos);
             let (t_sensor, stats) = median_stat(&mut *gated, &pos, |s| s.sensor_time);
@@ -134,13 +176,35 @@ fn quiet_table() {
     }
 }
 
+/// A named animation: its shape at time s in [0, 1].
+type Animation = (&'static str, Box<dyn Fn(f64) -> Deformation>);
+
 /// The analytic animations: name and shape at time s in [0, 1].
-fn animations() -> Vec<(&'static str, Box<dyn Fn(f64) -> Deformation>)> {
+fn animations() -> Vec<Animation> {
     vec![
-        ("fold", Box::new(|s| Deformation::Fold { angle: 1.25 * PI * s, radius: 0.05 })),
-        ("roll", Box::new(|s| Deformation::Roll { turns: 2.0 * s, gap: 0.02 })),
+        (
+            "fold",
+            Box::new(|s| Deformation::Fold {
+                angle: 1.25 * PI * s,
+                radius: 0.05,
+            }),
+        ),
+        (
+            "roll",
+            Box::new(|s| Deformation::Roll {
+                turns: 2.0 * s,
+                gap: 0.02,
+            }),
+        ),
         ("twist", Box::new(|s| Deformation::Twist { turns: s })),
-        ("crumple", Box::new(|s| Deformation::Crumple { amplitude: 0.3 * s, wavelength: 0.4, seed: 1 })),
+        (
+            "crumple",
+            Box::new(|s| Deformation::Crumple {
+                amplitude: 0.3 * s,
+                wavelength: 0.4,
+                seed: 1,
+            }),
+        ),
     ]
 }
 
@@ -155,19 +219,41 @@ fn animation_table() {
     for side in SIDES {
         let mesh = square(side);
         for (name, shape) in animations() {
-            let frames: Vec<Vec<DVec3>> = (0..60).map(|f| shape(f as f64 / 59.0).apply(mesh.rest())).collect();
+            let frames: Vec<Vec<DVec3>> = (0..60)
+                .map(|f| shape(f as f64 / 59.0).apply(mesh.rest()))
+                .collect();
             let methods = [Method::BvhConesContour, Method::SensorGated];
-            let runs = compare_methods(&mesh, &frames, &methods, &DetectorOptions::default(), |_| {}).unwrap();
+            let runs = compare_methods(
+                &mesh,
+                &frames,
+                &methods,
+                &DetectorOptions::default(),
+                |_| {},
+            )
+            .unwrap();
             let (b, g) = (&runs[0], &runs[1]);
             let contact: Vec<bool> = b.frames.iter().map(|r| r.stats.contacts > 0).collect();
-            let trig: Vec<bool> = g.frames.iter().map(|r| r.stats.triggered == Some(true)).collect();
+            let trig: Vec<bool> = g
+                .frames
+                .iter()
+                .map(|r| r.stats.triggered == Some(true))
+                .collect();
             let quiet_median = |r: &MethodRun| {
-                let mut q: Vec<f64> =
-                    r.frames.iter().zip(&contact).filter(|(_, &c)| !c).map(|(f, _)| f.stats.total_time()).collect();
+                let mut q: Vec<f64> = r
+                    .frames
+                    .iter()
+                    .zip(&contact)
+                    .filter(|(_, &c)| !c)
+                    .map(|(f, _)| f.stats.total_time())
+                    .collect();
                 q.sort_by(f64::total_cmp);
                 q.get(q.len() / 2).copied().unwrap_or(0.0)
             };
-            let first = |v: &[bool]| v.iter().position(|&x| x).map_or("-".to_string(), |f| f.to_string());
+            let first = |v: &[bool]| {
+                v.iter()
+                    .position(|&x| x)
+                    .map_or("-".to_string(), |f| f.to_string())
+            };
             println!(
                 "| {} | {name} | {} | {} | {} ({}) | {} | {:.0} / {:.0} | {:.1} / {:.1} us | {:.1} / {:.1} us | {} | {} |",
                 mesh.n_triangles(),

@@ -15,7 +15,10 @@ fn main() {
     let (v, f) = grid(side, 1.0);
     let mesh = Arc::new(Mesh::new(v, f).unwrap());
     let p = state.deformation(side).apply(mesh.rest());
-    let opts = DetectorOptions { thickness: thickness * mesh.mean_edge_length(), ..Default::default() };
+    let opts = DetectorOptions {
+        thickness: thickness * mesh.mean_edge_length(),
+        ..Default::default()
+    };
     let mut d = new_detector(mesh, method, &opts).unwrap();
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
     for _ in 0..reps {

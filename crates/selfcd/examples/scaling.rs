@@ -1,17 +1,28 @@
 //! Scaling benchmark: grid cloths of 200, 20k and 200k triangles, flat /
 //! crumpled / folded, every BVH method (and brute force up to 20k).
+//! Arguments ending in `.obj` are real meshes instead: for each, the build,
+//! the one-shot query (build + detect) and, per BVH method, one frame
+//! (refit + query) with its counters, medians over repetitions.
 //!
-//! `cargo run --release -p selfcd --example scaling [-- SIZES...]`
+//! `cargo run --release -p selfcd --example scaling [-- SIZES... | FILES.obj...]`
 
 use selfcd::bench::{markdown, scaling};
+use selfcd::bvh::build::build;
 use selfcd::scene::BenchState;
-use selfcd::Method;
+use selfcd::{new_detector, DetectorOptions, Mesh, Method};
+use std::sync::Arc;
+use std::time::Instant;
 
 fn main() -> selfcd::Result<()> {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let objs: Vec<&String> = args.iter().filter(|a| a.ends_with(".obj")).collect();
+    if !objs.is_empty() {
+        for path in objs {
+            real_mesh(path)?;
+        }
+        return Ok(());
+    }
+    let args: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let sizes = if args.is_empty() {
         vec![200, 20_000, 200_000]
     } else {
@@ -35,5 +46,90 @@ fn main() -> selfcd::Result<()> {
         })?);
     }
     println!("{}", markdown(&rows));
+    Ok(())
+}
+
+/// Reads the `v` and `f` lines of an OBJ file (polygons fanned into triangles).
+fn read_obj(path: &str) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let text = std::fs::read_to_string(path).expect("readable OBJ file");
+    let (mut v, mut f) = (Vec::new(), Vec::new());
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                let c: Vec<f64> = it.take(3).map(|x| x.parse().expect("number")).collect();
+                v.push([c[0], c[1], c[2]]);
+            }
+            Some("f") => {
+                let idx: Vec<u32> = it
+                    .map(|x| x.split('/').next().unwrap().parse::<u32>().expect("index") - 1)
+                    .collect();
+                for k in 1..idx.len() - 1 {
+                    f.push([idx[0], idx[k], idx[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    (v, f)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// One real mesh at its rest shape: build, one-shot, and per-frame rows.
+fn real_mesh(path: &str) -> selfcd::Result<()> {
+    let (v, f) = read_obj(path);
+    let mesh = Arc::new(Mesh::new(v, f)?);
+    let p = mesh.rest().to_vec();
+    let reps = 7;
+    let build_ms = median(
+        (0..reps)
+            .map(|_| {
+                let t0 = Instant::now();
+                let b = build(&mesh);
+                let t = t0.elapsed().as_secs_f64();
+                drop(b);
+                t * 1e3
+            })
+            .collect(),
+    );
+    let oneshot_ms = median(
+        (0..reps)
+            .map(|_| {
+                let t0 = Instant::now();
+                let n = selfcd::self_intersections(&mesh, &p).unwrap().len();
+                std::hint::black_box(n);
+                t0.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    );
+    let bytes = build(&mesh).memory_bytes() as f64 / mesh.n_triangles() as f64;
+    println!(
+        "{path}: {} triangles, build {build_ms:.2} ms, one-shot {oneshot_ms:.2} ms, {bytes:.0} B/tri",
+        mesh.n_triangles()
+    );
+    for method in [Method::Bvh, Method::BvhCones, Method::BvhConesContour] {
+        let mut det = new_detector(mesh.clone(), method, &DetectorOptions::default())?;
+        let mut last = det.detect(&p)?.stats;
+        let mut t = Vec::new();
+        for _ in 0..reps {
+            let t0 = Instant::now();
+            last = det.detect(&p)?.stats;
+            t.push(t0.elapsed().as_secs_f64() * 1e3);
+        }
+        println!(
+            "  {method}: frame {:.2} ms; node pairs {}, culls {}, contour tests {}, primitive tests {} ({} by the filter), contacts {}",
+            median(t),
+            last.node_pairs,
+            last.self_culls + last.pair_culls,
+            last.contour_tests,
+            last.primitive_tests,
+            last.filter_decisions,
+            last.contacts
+        );
+    }
     Ok(())
 }

@@ -226,8 +226,20 @@ fn sweep(mesh: &Arc<Mesh>, frames: usize) {
     if std::env::args().any(|a| a == "--fine") {
         for epsilon in [1e-3, 1e-2, 5e-2] {
             for n_min in [1, 2] {
-                for (tolerance, step_gain, n_max) in [(3.0, 16.0, 8), (3.0, 16.0, 16), (3.0, 4.0, 16), (3.0, 64.0, 8)] {
-                    let p = SensorParams { epsilon, n_min, tolerance, step_gain, n_max, ..Default::default() };
+                for (tolerance, step_gain, n_max) in [
+                    (3.0, 16.0, 8),
+                    (3.0, 16.0, 16),
+                    (3.0, 4.0, 16),
+                    (3.0, 64.0, 8),
+                ] {
+                    let p = SensorParams {
+                        epsilon,
+                        n_min,
+                        tolerance,
+                        step_gain,
+                        n_max,
+                        ..Default::default()
+                    };
                     print!("eps {epsilon} nmin {n_min} ");
                     sweep_line(mesh, &data, &p);
                 }
@@ -240,7 +252,14 @@ fn sweep(mesh: &Arc<Mesh>, frames: usize) {
             for step_gain in [1.0, 4.0, 16.0, 64.0] {
                 for max_step in [0.5, 1.0] {
                     for n_max in [4, 8, 16] {
-                        let p = SensorParams { count, tolerance, n_max, max_step, step_gain, ..Default::default() };
+                        let p = SensorParams {
+                            count,
+                            tolerance,
+                            n_max,
+                            max_step,
+                            step_gain,
+                            ..Default::default()
+                        };
                         sweep_line(mesh, &data, &p);
                     }
                 }
@@ -251,15 +270,26 @@ fn sweep(mesh: &Arc<Mesh>, frames: usize) {
 
 /// One parameter setting over every animation: one line.
 fn sweep_line(mesh: &Arc<Mesh>, data: &[(Vec<Vec<DVec3>>, Vec<usize>)], p: &SensorParams) {
-    let mut line =
-        format!("k {} tol {} gain {} step {} nmax {}:", p.count, p.tolerance, p.step_gain, p.max_step, p.n_max);
+    let mut line = format!(
+        "k {} tol {} gain {} step {} nmax {}:",
+        p.count, p.tolerance, p.step_gain, p.max_step, p.n_max
+    );
     let mut tot = (0, 0, 0u64, 0.0);
     for (a, (shapes, contacts)) in anims().iter().zip(data) {
         let (late, quiet, trig, missed, steps) = replay(mesh, shapes, contacts, p);
-        line += &format!(" {}[trig {trig} quiet {quiet} late {late} missed {missed} steps {steps:.1}]", a.name);
+        line += &format!(
+            " {}[trig {trig} quiet {quiet} late {late} missed {missed} steps {steps:.1}]",
+            a.name
+        );
         tot = (tot.0 + late, tot.1 + quiet, tot.2 + missed, tot.3 + steps);
     }
-    println!("{line} TOTAL late {} quiet {} missed {} steps {:.1}", tot.0, tot.1, tot.2, tot.3 / data.len() as f64);
+    println!(
+        "{line} TOTAL late {} quiet {} missed {} steps {:.1}",
+        tot.0,
+        tot.1,
+        tot.2,
+        tot.3 / data.len() as f64
+    );
 }
 
 fn main() {
@@ -280,8 +310,14 @@ fn main() {
         if args.iter().any(|a| a == "--sweep") {
             sweep(&mesh, frames);
         } else {
-            let count = args.iter().position(|a| a == "--count").and_then(|i| args.get(i + 1)?.parse().ok());
-            let p = SensorParams { count: count.unwrap_or(4), ..Default::default() };
+            let count = args
+                .iter()
+                .position(|a| a == "--count")
+                .and_then(|i| args.get(i + 1)?.parse().ok());
+            let p = SensorParams {
+                count: count.unwrap_or(4),
+                ..Default::default()
+            };
             report(&mesh, frames, &p, &format!("defaults, k {}", p.count));
         }
     }

@@ -3,9 +3,9 @@
 
 use crate::bvh::build::build;
 use crate::detect::{new_detector, DetectorOptions, Method};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::mesh::Mesh;
-use crate::scene::{grid, grid_side_for, BenchState};
+use crate::scene::{grid_side_for, try_grid, BenchState};
 use crate::stats::FrameStats;
 use std::sync::Arc;
 use std::time::Instant;
@@ -36,8 +36,13 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Smallest size measured: the sensor needs at least as many triangles as its 4 particles.
+pub const MIN_SIZE: usize = 8;
+
 /// Measures every (size, state, method): `reps` detections of the same frame
 /// after one warm-up, medians reported. Calls `progress` after each row.
+/// Errors: a size below [`MIN_SIZE`], too large for 32-bit indices, or too
+/// large to allocate ([`crate::Error::OutOfMemory`]).
 pub fn scaling(
     sizes: &[usize],
     states: &[BenchState],
@@ -45,10 +50,30 @@ pub fn scaling(
     reps: usize,
     mut progress: impl FnMut(&ScalingRow),
 ) -> Result<Vec<ScalingRow>> {
+    scaling_until(sizes, states, methods, reps, |r| {
+        progress(r);
+        Ok(())
+    })
+}
+
+/// [`scaling`] whose `progress` can stop the run: its first error (e.g.
+/// [`crate::Error::Interrupted`]) is returned at once.
+pub fn scaling_until(
+    sizes: &[usize],
+    states: &[BenchState],
+    methods: &[Method],
+    reps: usize,
+    mut progress: impl FnMut(&ScalingRow) -> Result<()>,
+) -> Result<Vec<ScalingRow>> {
+    if let Some(&bad) = sizes.iter().find(|&&s| s < MIN_SIZE) {
+        return Err(Error::InvalidParameter(format!(
+            "benchmark sizes must be at least {MIN_SIZE} triangles, got {bad}"
+        )));
+    }
     let mut rows = Vec::new();
     for &size in sizes {
         let side = grid_side_for(size);
-        let (v, f) = grid(side, 1.0);
+        let (v, f) = try_grid(side, 1.0)?;
         let mesh = Arc::new(Mesh::new(v, f)?);
         let builds: Vec<f64> = (0..reps.clamp(1, 3))
             .map(|_| {
@@ -85,7 +110,7 @@ pub fn scaling(
                     stats: last,
                     bvh_bytes_per_triangle: if is_bvh { bytes } else { 0.0 },
                 };
-                progress(&row);
+                progress(&row)?;
                 rows.push(row);
             }
         }

@@ -2,8 +2,15 @@
 //!
 //! A bottom-up BVH with normal-cone ("positive vector") culling and a
 //! conservative contour test, exact triangle-triangle predicates, proximity
-//! queries, and (see the crate README) the paper's particle sensor and cloth
-//! simulator. Start with [`Mesh::new`] and [`detect::new_detector`].
+//! and continuous queries, the paper's particle sensor ([`sensor`]) and a
+//! mass-spring cloth simulator ([`cloth`]); the repository's README.md covers
+//! the command line and the Python API. Start with [`Mesh::new`] and
+//! [`detect::new_detector`].
+//!
+//! Nothing panics on bad input: every error is an [`Error`].
+
+// `!(x > y)` is the NaN-safe comparison used on purpose throughout (NaN fails the test).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bench;
 pub mod bvh;

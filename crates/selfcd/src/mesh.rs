@@ -5,7 +5,6 @@
 //! once and shared by the BVH, the sensor and the cloth.
 
 use crate::error::{Error, Result};
-use crate::geom::predicates::is_degenerate;
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -121,9 +120,19 @@ impl Mesh {
     /// Validates `vertices` (rest shape) and `triangles` and builds the topology.
     ///
     /// Errors: empty mesh, non-finite coordinate, index out of range, a triangle
-    /// repeating a vertex, two triangles with the same vertex set, or a triangle
-    /// whose rest corners are exactly collinear (decided with exact predicates;
-    /// degenerate rest triangles are rejected because they have no normal).
+    /// repeating a vertex index, two triangles with the same vertex set.
+    ///
+    /// Accepted: zero-area triangles (collinear or coincident corners, in the
+    /// rest shape or any frame). Every query treats one as the segment or point
+    /// it is: it intersects what that segment or point touches; its normal cone
+    /// is the full cone, so no node holding it is culled.
+    ///
+    /// Refused, by policy: a repeated vertex *index* (`[a, b, b]`) names an edge
+    /// from a vertex to itself, which the edge topology cannot hold; a collapsed
+    /// corner needs its own vertex at the same position (`weld` in the Python
+    /// API keeps one so). Two triangles with the same three vertices are
+    /// refused too: they are adjacent, so their contact is never a
+    /// self-intersection, and one of them is a duplicate to remove.
     pub fn new(vertices: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Result<Mesh> {
         if vertices.is_empty() {
             return Err(Error::EmptyMesh("no vertices"));
@@ -155,13 +164,6 @@ impl Mesh {
                 return Err(Error::DuplicateTriangle { first, second: i });
             }
             seen.insert(key, i);
-            if is_degenerate(
-                rest[t[0] as usize],
-                rest[t[1] as usize],
-                rest[t[2] as usize],
-            ) {
-                return Err(Error::DegenerateTriangle { triangle: i });
-            }
         }
         let topo = Topology::new(n, &triangles);
         let mean_edge = topo
@@ -302,11 +304,10 @@ mod tests {
             Mesh::new(nan, vec![[0, 1, 2]]),
             Err(Error::NonFinite { vertex: 2, .. })
         ));
+        // Zero-area triangles are valid: a segment, a point.
         let line = vec![[0., 0., 0.], [1., 1., 1.], [2., 2., 2.]];
-        assert!(matches!(
-            Mesh::new(line, vec![[0, 1, 2]]),
-            Err(Error::DegenerateTriangle { triangle: 0 })
-        ));
+        assert!(Mesh::new(line, vec![[0, 1, 2]]).is_ok());
+        assert!(Mesh::new(vec![[1., 2., 3.]; 3], vec![[0, 1, 2]]).is_ok());
         let m = Mesh::new(v, vec![[0, 1, 2]]).unwrap();
         assert!(matches!(
             m.check_positions(&[DVec3::ZERO]),

@@ -3,19 +3,49 @@
 //! folded, Z-folded, crumpled, twisted, rolled, noisy), all as pure functions
 //! of the rest positions so they are reproducible.
 
+use crate::error::{try_vec, Error, Result};
 use glam::{DQuat, DVec3};
 use std::f64::consts::PI;
 
 /// A square grid cloth in the xy plane: `n x n` vertices over `[0, size]^2`,
 /// `2 (n-1)^2` triangles, counter-clockwise seen from +z, diagonals alternating
 /// in a checkerboard so the mesh has no preferred direction.
-pub fn grid(n: usize, size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+pub fn grid(n: usize, size: f64) -> MeshArrays {
     grid_rect(n, n, size, size)
 }
 
+/// Vertices and triangles of a generated mesh.
+pub type MeshArrays = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+
+/// [`grid`] for a side taken from user input: an error, not an abort or a
+/// wrapped index, when the side is below 2, the vertices overflow 32-bit
+/// indices, or the arrays cannot be allocated ([`Error::OutOfMemory`]).
+pub fn try_grid(n: usize, size: f64) -> Result<MeshArrays> {
+    let vertices = n
+        .checked_mul(n)
+        .filter(|&v| n >= 2 && v <= 1usize << 32)
+        .ok_or_else(|| {
+            Error::InvalidParameter(format!(
+                "a grid of {n} x {n} vertices is not possible: the side must be at least 2 and the \
+                 vertices must fit 32-bit indices"
+            ))
+        })?;
+    let mut v = try_vec(vertices, "grid vertices")?;
+    let mut f = try_vec(2 * (n - 1) * (n - 1), "grid triangles")?;
+    fill_grid(n, n, size, size, &mut v, &mut f);
+    Ok((v, f))
+}
+
 /// A rectangular grid cloth: `nx x ny` vertices over `[0, sx] x [0, sy]`.
-pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut v = Vec::with_capacity(nx * ny);
+pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> MeshArrays {
+    let (mut v, mut f) = (Vec::new(), Vec::new());
+    fill_grid(nx, ny, sx, sy, &mut v, &mut f);
+    (v, f)
+}
+
+/// Appends the vertices and triangles of [`grid_rect`] to `v` and `f`.
+fn fill_grid(nx: usize, ny: usize, sx: f64, sy: f64, v: &mut Vec<[f64; 3]>, f: &mut Vec<[u32; 3]>) {
+    v.reserve(nx * ny);
     for j in 0..ny {
         for i in 0..nx {
             v.push([
@@ -26,7 +56,7 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
         }
     }
     let id = |i: usize, j: usize| (j * nx + i) as u32;
-    let mut f = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
+    f.reserve(2 * (nx - 1) * (ny - 1));
     for j in 0..ny - 1 {
         for i in 0..nx - 1 {
             let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
@@ -37,6 +67,38 @@ pub fn grid_rect(nx: usize, ny: usize, sx: f64, sy: f64) -> (Vec<[f64; 3]>, Vec<
                 f.push([a, b, d]);
                 f.push([b, c, d]);
             }
+        }
+    }
+}
+
+/// A closed UV sphere of radius `r` about the origin, poles on the z axis:
+/// `rings >= 2` bands of latitude, `segments >= 3` of longitude, outward
+/// counter-clockwise triangles. The obstacle of the cloth tests and benchmarks.
+pub fn sphere(rings: usize, segments: usize, r: f64) -> MeshArrays {
+    let (rings, segments) = (rings.max(2), segments.max(3));
+    let mut v = vec![[0.0, 0.0, r]];
+    for i in 1..rings {
+        let theta = PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            v.push([
+                r * theta.sin() * phi.cos(),
+                r * theta.sin() * phi.sin(),
+                r * theta.cos(),
+            ]);
+        }
+    }
+    v.push([0.0, 0.0, -r]);
+    let south = (v.len() - 1) as u32;
+    let at = |i: usize, j: usize| (1 + (i - 1) * segments + j % segments) as u32;
+    let mut f = Vec::with_capacity(2 * segments * (rings - 1));
+    for j in 0..segments {
+        f.push([0, at(1, j), at(1, j + 1)]);
+        f.push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
+        for i in 1..rings - 1 {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            f.push([a, b, c]);
+            f.push([a, c, d]);
         }
     }
     (v, f)
@@ -89,7 +151,7 @@ pub enum Deformation {
     /// Fold the half x > mid over a cylinder of radius `radius * width`,
     /// through `angle` radians (PI folds it flat on top; more pushes it through).
     Fold { angle: f64, radius: f64 },
-    /// Accordion fold into `layers` flat layers stacked `gap * width` apart.
+    /// Accordion fold into `layers` (>= 1) flat layers stacked `gap * width` apart.
     ZFold { layers: usize, gap: f64 },
     /// A smooth random displacement of size `amplitude * width` and wavelength
     /// `wavelength * width`; large amplitudes fold the sheet through itself.
@@ -156,7 +218,7 @@ impl std::str::FromStr for BenchState {
     }
 }
 
-/// Extent of the rest shape: (min corner, width along x).
+/// Extent of the rest shape: (min corner, max corner, width along x; never 0).
 fn frame(rest: &[DVec3]) -> (DVec3, DVec3, f64) {
     let lo = rest.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
     let hi = rest.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
@@ -164,7 +226,57 @@ fn frame(rest: &[DVec3]) -> (DVec3, DVec3, f64) {
 }
 
 impl Deformation {
-    /// Positions of `rest` (a flat mesh in the xy plane) in this shape.
+    /// Checks the parameters: every number finite; `layers` >= 1; radius >= 0;
+    /// wavelength and roll turns > 0 (a negative gap is allowed: the layers
+    /// then pass through each other). [`Deformation::apply`] with
+    /// other values does not panic, but its positions mean nothing.
+    pub fn validate(&self) -> Result<()> {
+        use Deformation::*;
+        let (named, positive): (Vec<(&str, f64)>, &[&str]) = match *self {
+            Flat => (vec![], &[]),
+            Fold { angle, radius } => (vec![("angle", angle), ("radius", radius)], &[]),
+            ZFold { layers, gap } => {
+                if layers == 0 {
+                    return Err(Error::InvalidParameter(
+                        "zfold layers must be at least 1".into(),
+                    ));
+                }
+                (vec![("gap", gap)], &[])
+            }
+            Crumple {
+                amplitude,
+                wavelength,
+                ..
+            } => (
+                vec![("amplitude", amplitude), ("wavelength", wavelength)],
+                &["wavelength"],
+            ),
+            Twist { turns } => (vec![("turns", turns)], &[]),
+            Roll { turns, gap } => (vec![("turns", turns), ("gap", gap)], &["turns"]),
+            Noise { amplitude, .. } => (vec![("amplitude", amplitude)], &[]),
+        };
+        for (name, v) in named {
+            let must_be_positive = positive.contains(&name);
+            let non_negative = name == "radius";
+            let ok = v.is_finite() && (!must_be_positive || v > 0.0) && (!non_negative || v >= 0.0);
+            if !ok {
+                let range = if must_be_positive {
+                    "finite and > 0"
+                } else if non_negative {
+                    "finite and >= 0"
+                } else {
+                    "finite"
+                };
+                return Err(Error::InvalidParameter(format!(
+                    "shape parameter {name} must be {range}, got {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Positions of `rest` (a flat mesh in the xy plane) in this shape
+    /// (parameters as [`Deformation::validate`] accepts).
     pub fn apply(&self, rest: &[DVec3]) -> Vec<DVec3> {
         let (lo, hi, w) = frame(rest);
         match *self {
@@ -175,14 +287,19 @@ impl Deformation {
                 rest.iter().map(|p| fold_point(*p, mid, r, angle)).collect()
             }
             Deformation::ZFold { layers, gap } => {
-                let panel = w / layers.max(1) as f64;
+                let layers = layers.max(1); // 0 is refused by validate; never underflow
+                let panel = w / layers as f64;
                 rest.iter()
                     .map(|p| {
                         let u = (p.x - lo.x) / panel;
                         let k = (u.floor() as usize).min(layers - 1);
                         let local = (u - k as f64) * panel;
                         let on_fold = k > 0 && (u - k as f64).abs() < 1e-12;
-                        let x = if k % 2 == 0 { local } else { panel - local };
+                        let x = if k.is_multiple_of(2) {
+                            local
+                        } else {
+                            panel - local
+                        };
                         let z = if on_fold {
                             (k as f64 - 0.5) * gap * w
                         } else {
@@ -328,39 +445,6 @@ pub fn tube(
     (v, f)
 }
 
-/// A latitude-longitude sphere of radius `radius` about the origin with
-/// `n_lat` rings between the poles and `n_lon` vertices per ring.
-pub fn sphere(n_lat: usize, n_lon: usize, radius: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut v = vec![[0.0, 0.0, radius]];
-    for k in 1..=n_lat {
-        let theta = PI * k as f64 / (n_lat + 1) as f64;
-        for i in 0..n_lon {
-            let phi = 2.0 * PI * i as f64 / n_lon as f64;
-            v.push([
-                radius * theta.sin() * phi.cos(),
-                radius * theta.sin() * phi.sin(),
-                radius * theta.cos(),
-            ]);
-        }
-    }
-    v.push([0.0, 0.0, -radius]);
-    let south = (v.len() - 1) as u32;
-    let id = |k: usize, i: usize| (1 + (k - 1) * n_lon + i % n_lon) as u32;
-    let mut f = Vec::new();
-    for i in 0..n_lon {
-        f.push([0, id(1, i), id(1, i + 1)]);
-        f.push([south, id(n_lat, i + 1), id(n_lat, i)]);
-    }
-    for k in 1..n_lat {
-        for i in 0..n_lon {
-            let (a, b, c, d) = (id(k, i), id(k + 1, i), id(k + 1, i + 1), id(k, i + 1));
-            f.push([a, b, c]);
-            f.push([a, c, d]);
-        }
-    }
-    (v, f)
-}
-
 /// Pinches `rest` (any shape) towards the plane x = c (c the x-midpoint of its
 /// bounds) near the plane z = zc: x' = c + (x - c) (1 - depth g(z)), with g a
 /// Gaussian of width a quarter of the z extent. Past depth 1 the two sides pass
@@ -380,6 +464,62 @@ pub fn pinch(rest: &[DVec3], depth: f64) -> Vec<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bad_shapes_and_sizes_are_errors_not_panics() {
+        let (v, _) = grid(5, 1.0);
+        let rest: Vec<DVec3> = v.iter().map(|p| DVec3::from_array(*p)).collect();
+        let zero = Deformation::ZFold {
+            layers: 0,
+            gap: 0.1,
+        };
+        assert!(zero.validate().is_err());
+        assert_eq!(zero.apply(&rest).len(), rest.len()); // no underflow even unchecked
+        for bad in [
+            Deformation::Fold {
+                angle: f64::NAN,
+                radius: 0.1,
+            },
+            Deformation::Fold {
+                angle: 1.0,
+                radius: -0.1,
+            },
+            Deformation::Crumple {
+                amplitude: 0.1,
+                wavelength: 0.0,
+                seed: 1,
+            },
+            Deformation::Roll {
+                turns: 0.0,
+                gap: 0.1,
+            },
+            Deformation::Twist {
+                turns: f64::INFINITY,
+            },
+            Deformation::Noise {
+                amplitude: f64::NAN,
+                seed: 1,
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+        assert!(Deformation::ZFold {
+            layers: 3,
+            gap: 0.0
+        }
+        .validate()
+        .is_ok());
+        assert!(matches!(try_grid(1, 1.0), Err(Error::InvalidParameter(_))));
+        assert!(matches!(
+            try_grid(1 << 16 | 1, 1.0),
+            Err(Error::InvalidParameter(_))
+        ));
+        assert!(matches!(
+            try_grid(usize::MAX, 1.0),
+            Err(Error::InvalidParameter(_))
+        ));
+        assert_eq!(try_grid(4, 2.0).unwrap(), grid(4, 2.0));
+    }
 
     #[test]
     fn paper_grid_has_200_triangles() {
@@ -403,4 +543,3 @@ mod tests {
         assert!((p[100].z - 0.1).abs() < 1e-9 && p[100].x < 0.6);
     }
 }
-

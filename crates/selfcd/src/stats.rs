@@ -21,8 +21,11 @@ pub struct FrameStats {
     pub contour_fails: u64,
     /// Leaf pairs skipped because the triangles share a vertex.
     pub adjacent_skips: u64,
-    /// Exact triangle-triangle tests run: the paper's polygon-polygon checks.
+    /// Triangle-triangle tests run: the paper's polygon-polygon checks.
     pub primitive_tests: u64,
+    /// Of those, the pairs the floating-point filter proved apart without the
+    /// exact predicates (the rest ran the exact test).
+    pub filter_decisions: u64,
     /// Leaf pairs given the proximity test (thickness > 0; its node pairs are in `node_pairs`).
     pub proximity_tests: u64,
     /// Intersecting triangle pairs found.
@@ -65,6 +68,8 @@ pub struct Counters {
     pub adjacent_skips: u64,
     /// See [`FrameStats::primitive_tests`].
     pub primitive_tests: u64,
+    /// See [`FrameStats::filter_decisions`].
+    pub filter_decisions: u64,
 }
 
 impl Counters {
@@ -77,6 +82,7 @@ impl Counters {
         self.contour_fails += o.contour_fails;
         self.adjacent_skips += o.adjacent_skips;
         self.primitive_tests += o.primitive_tests;
+        self.filter_decisions += o.filter_decisions;
     }
 
     /// Copies the counters into a frame's stats.
@@ -88,5 +94,6 @@ impl Counters {
         s.contour_fails = self.contour_fails;
         s.adjacent_skips = self.adjacent_skips;
         s.primitive_tests = self.primitive_tests;
+        s.filter_decisions = self.filter_decisions;
     }
 }

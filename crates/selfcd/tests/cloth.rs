@@ -1,10 +1,13 @@
 //! The cloth simulator: pins, free fall, rest under gravity, long runs, no
-//! self-intersection at the end of any step, determinism across thread counts.
+//! self-intersection at the end of any step, determinism across thread counts,
+//! obstacles (static and animated) and friction.
 
+use glam::DQuat;
+use selfcd::cloth::obstacle::{Obstacle, Obstacles};
 use selfcd::cloth::springs::SpringKind;
 use selfcd::cloth::{Cloth, Material, PaperScene, SimOptions, Simulation};
 use selfcd::detect::{new_detector, DetectorOptions, Method};
-use selfcd::scene::grid;
+use selfcd::scene::{grid, sphere};
 use selfcd::{DVec3, Error, Mesh};
 use std::sync::Arc;
 
@@ -243,4 +246,175 @@ fn bad_options_are_typed_errors() {
         "nowhere".parse::<PaperScene>(),
         Err(Error::InvalidParameter(_))
     ));
+}
+
+/// A `n x n` square cloth of side 1 centred over the origin at height `z`.
+fn square_at(n: usize, z: f64, pins: &[u32]) -> Cloth {
+    let (v, f) = grid(n, 1.0);
+    let v = v.iter().map(|p| [p[0] - 0.5, p[1] - 0.5, z]).collect();
+    Cloth::new(
+        Arc::new(Mesh::new(v, f).unwrap()),
+        Material::default(),
+        pins,
+    )
+    .unwrap()
+}
+
+/// Sphere of radius 0.3 about the origin, rotating about the x axis at `w`
+/// rad/s, keyframed every `dt` for `frames` frames (one frame: static).
+fn sphere_obstacle(w: f64, dt: f64, frames: usize) -> Obstacles {
+    let (v, f) = sphere(12, 24, 0.3);
+    let keys = (0..frames)
+        .map(|k| {
+            let r = DQuat::from_rotation_x(w * dt * k as f64);
+            v.iter().map(|p| (r * DVec3::from(*p)).to_array()).collect()
+        })
+        .collect();
+    Obstacles::new(vec![Obstacle::animated(keys, f, dt).unwrap()]).unwrap()
+}
+
+/// Steps `sim` and checks after every step, with the brute-force exact query on
+/// the combined mesh (cloth and obstacles), that no cloth triangle intersects
+/// another cloth triangle or an obstacle triangle. Returns the contacts seen.
+fn run_without_intersections(sim: &mut Simulation, steps: usize) -> usize {
+    let cloth = sim.cloth().mesh().clone();
+    let obstacle = sim.obstacles().unwrap().mesh().clone();
+    let n = cloth.n_vertices();
+    let mut v: Vec<[f64; 3]> = cloth.rest().iter().map(|p| p.to_array()).collect();
+    v.extend(obstacle.rest().iter().map(|p| p.to_array()));
+    let mut f = cloth.triangles().to_vec();
+    f.extend(obstacle.triangles().iter().map(|t| t.map(|i| i + n as u32)));
+    let combined = Arc::new(Mesh::new(v, f).unwrap());
+    let mut brute = new_detector(combined, Method::Brute, &DetectorOptions::default()).unwrap();
+    let n_cloth_tris = cloth.n_triangles() as u32;
+    let mut obstacle_contacts = 0;
+    for step in 0..steps {
+        let st = sim.step().unwrap();
+        let x: Vec<DVec3> = sim
+            .positions()
+            .iter()
+            .copied()
+            .chain(sim.obstacle_positions())
+            .collect();
+        let bad: Vec<[u32; 2]> = brute
+            .detect(&x)
+            .unwrap()
+            .pairs
+            .into_iter()
+            .filter(|p| p[0] < n_cloth_tris)
+            .collect();
+        assert!(
+            bad.is_empty(),
+            "{} intersecting pairs after step {step}: {:?}",
+            bad.len(),
+            &bad[..bad.len().min(5)]
+        );
+        assert_eq!(st.intersections, 0);
+        obstacle_contacts += st.obstacle_contacts;
+    }
+    obstacle_contacts
+}
+
+#[test]
+fn cloth_drapes_over_a_static_sphere() {
+    let cloth = square_at(15, 0.33, &[]);
+    let mut sim = Simulation::new(
+        cloth.clone(),
+        Method::BvhConesContour,
+        SimOptions::for_cloth(&cloth),
+    )
+    .unwrap();
+    sim.set_obstacles(Some(sphere_obstacle(0.0, H, 1)));
+    let contacts = run_without_intersections(&mut sim, 100);
+    assert!(contacts > 0, "the cloth never reached the sphere");
+    let x = sim.positions();
+    let centre = x[7 * 15 + 7];
+    assert!(
+        centre.z > 0.29 && centre.z < 0.34,
+        "the centre rests on the sphere: {centre}"
+    );
+    assert!(x.iter().any(|p| p.z < 0.1), "the sides hang down");
+}
+
+#[test]
+fn cloth_on_a_rotating_sphere_is_dragged_by_friction() {
+    let run = |obstacle_friction: f64| {
+        let cloth = square_at(13, 0.32, &[]);
+        let mut opts = SimOptions::for_cloth(&cloth);
+        opts.contact.obstacle_friction = obstacle_friction;
+        let mut sim = Simulation::new(cloth, Method::BvhConesContour, opts).unwrap();
+        sim.set_obstacles(Some(sphere_obstacle(4.0, H, 61)));
+        assert!(run_without_intersections(&mut sim, 60) > 0);
+        sim.positions().iter().map(|p| p.y).sum::<f64>() / sim.positions().len() as f64
+    };
+    // Rotating about +x, the top of the sphere moves towards +y.
+    let (slip, grip) = (run(0.0), run(1.0));
+    eprintln!("mean y after 1 s: {grip} with friction 1, {slip} without");
+    assert!(
+        grip > slip + 0.01,
+        "friction drags the cloth along: mean y {grip} vs {slip} without friction"
+    );
+}
+
+#[test]
+fn obstacles_reject_bad_input() {
+    let (v, f) = sphere(4, 6, 1.0);
+    assert!(matches!(
+        Obstacle::animated(vec![], f.clone(), H),
+        Err(Error::EmptyMesh(_))
+    ));
+    assert!(matches!(
+        Obstacle::animated(vec![v.clone(), v[1..].to_vec()], f.clone(), H),
+        Err(Error::PositionsLength { .. })
+    ));
+    assert!(matches!(
+        Obstacle::animated(vec![v.clone()], f.clone(), 0.0),
+        Err(Error::InvalidParameter(_))
+    ));
+    assert!(matches!(
+        Obstacle::fixed(v, vec![[0, 1, 99]]),
+        Err(Error::IndexOutOfRange { .. })
+    ));
+}
+
+#[test]
+fn intersections_the_input_starts_with_are_left_alone_and_counted() {
+    // Two squares crossing at right angles: one in the xy plane, one in the xz plane.
+    let (v, f) = grid(5, 1.0);
+    let n = v.len() as u32;
+    let mut vs: Vec<[f64; 3]> = v.iter().map(|p| [p[0], p[1] - 0.5, 0.0]).collect();
+    vs.extend(v.iter().map(|p| [p[0] + 0.05, 0.02, p[1] - 0.5]));
+    let mut fs = f.clone();
+    fs.extend(f.iter().map(|t| t.map(|i| i + n)));
+    let cloth = Cloth::new(
+        Arc::new(Mesh::new(vs, fs).unwrap()),
+        Material::default(),
+        &[],
+    )
+    .unwrap();
+    let mut sim = Simulation::new(
+        cloth.clone(),
+        Method::BvhConesContour,
+        SimOptions::for_cloth(&cloth),
+    )
+    .unwrap();
+    let at_start = selfcd::self_intersections(cloth.mesh(), sim.positions())
+        .unwrap()
+        .len();
+    assert!(at_start > 0);
+    for _ in 0..30 {
+        let st = sim.step().unwrap();
+        let now = selfcd::self_intersections(sim.cloth().mesh(), sim.positions())
+            .unwrap()
+            .len();
+        assert!(
+            now > 0 && st.intersections == now,
+            "the crossing stays, and is counted"
+        );
+    }
+    let drop = -sim.positions()[0].z;
+    assert!(
+        drop > 0.3,
+        "the cloth falls freely, not frozen by the crossing: {drop}"
+    );
 }

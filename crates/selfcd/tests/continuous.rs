@@ -19,15 +19,53 @@ fn mesh(n: usize) -> Arc<Mesh> {
 fn steps() -> Vec<(&'static str, Deformation, Deformation)> {
     use Deformation::*;
     vec![
-        ("fold-through", Fold { angle: 0.9 * PI, radius: 0.02 }, Fold { angle: 1.15 * PI, radius: 0.02 }),
+        (
+            "fold-through",
+            Fold {
+                angle: 0.9 * PI,
+                radius: 0.02,
+            },
+            Fold {
+                angle: 1.15 * PI,
+                radius: 0.02,
+            },
+        ),
         // Ends 0.01 apart: within a separation of 0.02, never touching.
-        ("fold-close", Fold { angle: 0.8 * PI, radius: 0.005 }, Fold { angle: PI, radius: 0.005 }),
+        (
+            "fold-close",
+            Fold {
+                angle: 0.8 * PI,
+                radius: 0.005,
+            },
+            Fold {
+                angle: PI,
+                radius: 0.005,
+            },
+        ),
         (
             "crumple-grow",
-            Crumple { amplitude: 0.05, wavelength: 0.4, seed: 3 },
-            Crumple { amplitude: 0.3, wavelength: 0.4, seed: 3 },
+            Crumple {
+                amplitude: 0.05,
+                wavelength: 0.4,
+                seed: 3,
+            },
+            Crumple {
+                amplitude: 0.3,
+                wavelength: 0.4,
+                seed: 3,
+            },
         ),
-        ("roll", Roll { turns: 0.5, gap: 0.01 }, Roll { turns: 2.0, gap: 0.0 }),
+        (
+            "roll",
+            Roll {
+                turns: 0.5,
+                gap: 0.01,
+            },
+            Roll {
+                turns: 2.0,
+                gap: 0.0,
+            },
+        ),
     ]
 }
 
@@ -55,7 +93,11 @@ fn naive(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], xi: f64) -> Vec<(ElementPair, 
 }
 
 fn flat(i: &Impacts) -> Vec<(ElementPair, f64)> {
-    i.vertex_triangle.iter().chain(&i.edge_edge).map(|x| (x.pair, x.toi)).collect()
+    i.vertex_triangle
+        .iter()
+        .chain(&i.edge_edge)
+        .map(|x| (x.pair, x.toi))
+        .collect()
 }
 
 #[test]
@@ -82,7 +124,10 @@ fn no_intersection_is_reached_before_the_reported_time() {
     let m = mesh(11);
     for (name, a, b) in steps() {
         let (x0, x1) = (a.apply(m.rest()), b.apply(m.rest()));
-        assert!(self_intersections(&m, &x0).unwrap().is_empty(), "{name} must start clean");
+        assert!(
+            self_intersections(&m, &x0).unwrap().is_empty(),
+            "{name} must start clean"
+        );
         let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
         let impacts = flat(&det.continuous(&x0, &x1, 0.0).unwrap());
         let mut checked = 0;
@@ -95,16 +140,26 @@ fn no_intersection_is_reached_before_the_reported_time() {
                 let ea = m.topology().tri_edges[ta as usize];
                 let eb = m.topology().tri_edges[tb as usize];
                 let covers = |p: &ElementPair| match *p {
-                    ElementPair::VertexTriangle(v, t) => (fa.contains(&v) && t == tb) || (fb.contains(&v) && t == ta),
+                    ElementPair::VertexTriangle(v, t) => {
+                        (fa.contains(&v) && t == tb) || (fb.contains(&v) && t == ta)
+                    }
                     ElementPair::EdgeEdge(e0, e1) => {
-                        (ea.contains(&e0) && eb.contains(&e1)) || (ea.contains(&e1) && eb.contains(&e0))
+                        (ea.contains(&e0) && eb.contains(&e1))
+                            || (ea.contains(&e1) && eb.contains(&e0))
                     }
                 };
-                let first = impacts.iter().filter(|(p, _)| covers(p)).map(|(_, t)| *t).fold(f64::INFINITY, f64::min);
+                let first = impacts
+                    .iter()
+                    .filter(|(p, _)| covers(p))
+                    .map(|(_, t)| *t)
+                    .fold(f64::INFINITY, f64::min);
                 assert!(first <= s, "{name}: triangles {ta},{tb} intersect at t = {s}, first impact reported {first}");
             }
         }
-        assert!(checked > 0 || name == "fold-close", "{name}: the step should intersect somewhere");
+        assert!(
+            checked > 0 || name == "fold-close",
+            "{name}: the step should intersect somewhere"
+        );
     }
 }
 

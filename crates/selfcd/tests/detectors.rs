@@ -311,7 +311,10 @@ fn proximity_matches_brute() {
                 )
             };
             let (kw, kg) = (keys(&want), keys(&got));
-            assert!(kw == naive_proximity(&mesh, &p, d), "brute proximity differs from the element-pair loop on {mname}/{sname}");
+            assert!(
+                kw == naive_proximity(&mesh, &p, d),
+                "brute proximity differs from the element-pair loop on {mname}/{sname}"
+            );
             assert!(
                 kw == kg,
                 "proximity differs on {mname}/{sname}: brute {} vt {} ee, bvh {} vt {} ee",
@@ -396,4 +399,35 @@ fn bad_positions_are_errors_not_panics() {
         }
     )
     .is_err());
+}
+
+#[test]
+fn extreme_scales_give_the_same_pairs() {
+    // Powers of two are exact, so every scale must give the unit answer; the
+    // predicates would overflow at 2^360 and 2^1000 and underflow at 2^-900
+    // without the filter's bounds and the exact path's power-of-two scaling.
+    let (v, f) = grid(13, 1.0);
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let base = Deformation::Crumple {
+        amplitude: 0.35,
+        wavelength: 0.4,
+        seed: 3,
+    }
+    .apply(mesh.rest());
+    let want = detect(&mesh, Method::Brute, &base, 0.0).pairs;
+    assert!(want.len() > 10, "the crumple should self-intersect");
+    for e in [-1000, -900, -360, 360, 1000] {
+        let s = 2f64.powi(e);
+        let scaled_mesh = Arc::new(
+            Mesh::new(
+                scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
+                mesh.triangles().to_vec(),
+            )
+            .unwrap(),
+        );
+        let p = scale(&base, s);
+        for m in [Method::Brute, Method::Bvh, Method::BvhConesContour] {
+            assert_eq!(detect(&scaled_mesh, m, &p, 0.0).pairs, want, "{m} at 2^{e}");
+        }
+    }
 }

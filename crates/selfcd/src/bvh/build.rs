@@ -1,7 +1,8 @@
 //! Bottom-up construction (paper 3.2), once, on the rest mesh.
 //!
 //! Level by level, nodes are paired greedily so that the merged box is
-//! smallest, as in the paper; we measure boxes by *surface area*, not volume,
+//! smallest, as in the paper (computed in parallel as locally dominant edges,
+//! see [`dominant_matching`]); we measure boxes by *surface area*, not volume,
 //! because a flat cloth's boxes all have zero volume. Only nodes whose patches
 //! share an edge are paired, so every node is a connected patch of surface
 //! (the cone and contour tests need that). When no two remaining nodes share
@@ -11,6 +12,7 @@ use super::contour::{self, count_common, merge_contours, pack, Patches};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
+use rayon::prelude::*;
 
 /// Growing per-node patch data while building.
 struct PatchBuilder {
@@ -45,20 +47,32 @@ impl PatchBuilder {
         b
     }
 
-    /// Appends the patch of the union of nodes `l` and `r`.
-    fn push_union(&mut self, mesh: &Mesh, l: usize, r: usize) {
+    /// Appends the patches of the unions of the `pairs` (disjoint nodes), in order.
+    fn push_level(&mut self, mesh: &Mesh, pairs: &[(u32, u32)]) {
+        let unions: Vec<_> = pairs
+            .par_iter()
+            .map(|&(l, r)| self.union(mesh, l as usize, r as usize))
+            .collect();
+        for (c, v, euler, eligible) in unions {
+            self.contour.push(c);
+            self.boundary.push(v);
+            self.euler.push(euler);
+            self.eligible.push(eligible);
+        }
+    }
+
+    /// Contour, boundary vertices, Euler characteristic and eligibility of the
+    /// union of disjoint nodes `l` and `r`.
+    fn union(&self, mesh: &Mesh, l: usize, r: usize) -> (Vec<u32>, Vec<u32>, i32, bool) {
         let mut c = Vec::new();
         let info = merge_contours(&self.contour[l], &self.contour[r], &mut c);
         let shared_v = count_common(&self.boundary[l], &self.boundary[r]) as i32;
         let mut v: Vec<u32> = c.iter().flat_map(|&e| contour::unpack(mesh, e)).collect();
         v.sort_unstable();
         v.dedup();
-        self.euler
-            .push(self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32);
-        self.eligible
-            .push(self.eligible[l] && self.eligible[r] && !info.conflict);
-        self.contour.push(c);
-        self.boundary.push(v);
+        let euler = self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32;
+        let eligible = self.eligible[l] && self.eligible[r] && !info.conflict;
+        (c, v, euler, eligible)
     }
 
     fn finish(self) -> Patches {
@@ -84,6 +98,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
     let n = mesh.n_triangles();
     let rest = mesh.rest();
     let mut boxes: Vec<Aabb> = (0..n)
+        .into_par_iter()
         .map(|t| Aabb::from_points(&mesh.corners(rest, t)))
         .collect();
     let mut patches = PatchBuilder::leaves(mesh);
@@ -95,7 +110,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
     let mut rep: Vec<u32> = (0..(2 * n) as u32).collect();
     while active.len() > 1 {
         let level_start = (n + children.len()) as u32;
-        let mut matched = greedy_matching(&graph, &boxes);
+        let mut matched = dominant_matching(&graph, &boxes);
         if matched.is_empty() {
             matched = spatial_pairs(&active, &boxes);
         }
@@ -104,12 +119,12 @@ pub fn build(mesh: &Mesh) -> Bvh {
         for m in matched.iter_mut() {
             *m = (m.0.min(m.1), m.0.max(m.1));
         }
-        matched.sort_unstable();
+        matched.par_sort_unstable();
+        patches.push_level(mesh, &matched);
         for &(a, b) in &matched {
             let p = (n + children.len()) as u32;
             children.push([a, b]);
             boxes.push(boxes[a as usize].union(&boxes[b as usize]));
-            patches.push_union(mesh, a as usize, b as usize);
             rep[a as usize] = p;
             rep[b as usize] = p;
         }
@@ -118,14 +133,14 @@ pub fn build(mesh: &Mesh) -> Bvh {
         active.sort_unstable();
         active.dedup();
         graph = graph
-            .iter()
+            .par_iter()
             .map(|&(a, b)| {
                 let (x, y) = (rep[a as usize], rep[b as usize]);
                 (x.min(y), x.max(y))
             })
             .filter(|&(x, y)| x != y)
             .collect();
-        graph.sort_unstable();
+        graph.par_sort_unstable();
         graph.dedup();
     }
     let cones = vec![NormalCone::FULL; boxes.len()];
@@ -153,15 +168,34 @@ fn leaf_graph(mesh: &Mesh) -> Vec<(u32, u32)> {
             }
         }
     }
-    g.sort_unstable();
+    g.par_sort_unstable();
     g.dedup();
     g
 }
 
-/// Greedy matching of graph edges in order of merged box surface area (ties by ids).
-fn greedy_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
-    let mut cand: Vec<(f64, u32, u32)> = graph
-        .iter()
+/// Rounds of locally dominant matching per level.
+const ROUNDS: usize = 8;
+
+/// Key ordering candidate merges: merged box surface area, ties by ids.
+type Key = (f64, u32, u32);
+
+fn key_less(x: &Key, y: &Key) -> bool {
+    x.0.total_cmp(&y.0)
+        .then(x.1.cmp(&y.1))
+        .then(x.2.cmp(&y.2))
+        .is_lt()
+}
+
+/// The greedy matching of graph edges in order of merged box surface area
+/// (ties by ids), computed as locally dominant edges: an edge that is the
+/// best of both its endpoints is in the greedy matching, so matching those,
+/// dropping their endpoints and repeating gives the greedy result with O(E)
+/// work per round and no global sort. Rounds stop after [`ROUNDS`] (a long
+/// chain of ever larger merges would otherwise take one round per edge); nodes
+/// left unmatched wait for the next level.
+fn dominant_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
+    let mut cand: Vec<Key> = graph
+        .par_iter()
         .map(|&(a, b)| {
             (
                 boxes[a as usize].union(&boxes[b as usize]).surface_area(),
@@ -170,15 +204,33 @@ fn greedy_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
             )
         })
         .collect();
-    cand.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    const NONE: Key = (f64::INFINITY, u32::MAX, u32::MAX);
+    let mut best = vec![NONE; boxes.len()];
     let mut used = vec![false; boxes.len()];
     let mut out = Vec::new();
-    for (_, a, b) in cand {
-        if !used[a as usize] && !used[b as usize] {
-            used[a as usize] = true;
-            used[b as usize] = true;
-            out.push((a, b));
+    for _ in 0..ROUNDS {
+        if cand.is_empty() {
+            break;
         }
+        for c in &cand {
+            for v in [c.1, c.2] {
+                if key_less(c, &best[v as usize]) {
+                    best[v as usize] = *c;
+                }
+            }
+        }
+        for c in &cand {
+            if best[c.1 as usize] == *c && best[c.2 as usize] == *c {
+                used[c.1 as usize] = true;
+                used[c.2 as usize] = true;
+                out.push((c.1, c.2));
+            }
+        }
+        for c in &cand {
+            best[c.1 as usize] = NONE;
+            best[c.2 as usize] = NONE;
+        }
+        cand.retain(|c| !used[c.1 as usize] && !used[c.2 as usize]);
     }
     out
 }

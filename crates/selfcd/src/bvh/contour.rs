@@ -135,9 +135,6 @@ pub struct Seg {
     pub v: [u32; 2],
 }
 
-/// Contours longer than this are not given the quadratic simple-loop test.
-const SIMPLE_LOOP_MAX: usize = 64;
-
 /// Projects directed contour edges along `axis` (relative to `origin`) into `out`.
 /// The basis (u, w, axis) is right-handed, so counter-clockwise seen from +axis
 /// stays counter-clockwise.
@@ -204,7 +201,8 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
         let cross = a[0] * b[1] - a[1] * b[0];
         let scale = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
         // Strictly left, with a relative margin far above the rounding of the projection.
-        if !(cross > 1e-9 * scale) {
+        // (NaN or infinite values never pass.)
+        if cross.partial_cmp(&(1e-9 * scale)) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         crossings += (a[1] <= 0.0 && b[1] > 0.0) as u32;
@@ -247,7 +245,8 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
         (true, true) => true,
         (false, false) => {
             let boxes_apart = (0..2).any(|k| {
-                a.p[0][k].max(a.p[1][k]) < b.p[0][k].min(b.p[1][k]) || b.p[0][k].max(b.p[1][k]) < a.p[0][k].min(a.p[1][k])
+                a.p[0][k].max(a.p[1][k]) < b.p[0][k].min(b.p[1][k])
+                    || b.p[0][k].max(b.p[1][k]) < a.p[0][k].min(a.p[1][k])
             });
             let side = |s: &Seg, p: [f64; 2]| orient(s.p[0], s.p[1], p);
             let one_side = |s: &Seg, t: &Seg| {
@@ -258,8 +257,16 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
         }
         (sa0, _) => {
             // One shared vertex s: the edges leave it in different directions.
-            let (s, fa) = if sa0 { (a.p[0], a.p[1]) } else { (a.p[1], a.p[0]) };
-            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] { b.p[1] } else { b.p[0] };
+            let (s, fa) = if sa0 {
+                (a.p[0], a.p[1])
+            } else {
+                (a.p[1], a.p[0])
+            };
+            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] {
+                b.p[1]
+            } else {
+                b.p[0]
+            };
             let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
             orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
         }
@@ -269,19 +276,15 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
 /// Is the projected contour one simple counter-clockwise loop? Every vertex
 /// starts and ends exactly one edge, the edges form a single cycle, no two
 /// edges meet except consecutive ones at their shared vertex, and the signed
-/// area is positive. Quadratic; only for contours up to 64 edges.
+/// area is positive. O(m log m) plus the pairs of edges whose x-ranges overlap.
 pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
     let m = segs.len();
-    if !(3..=SIMPLE_LOOP_MAX).contains(&m) {
+    if m < 3 {
         return false;
     }
     // One cycle: each vertex starts exactly one edge; walk start -> end from
     // the first edge and come back after exactly m steps.
-    let mut buf = [(0u32, 0u32); SIMPLE_LOOP_MAX];
-    let by_start = &mut buf[..m];
-    for (b, s) in by_start.iter_mut().zip(segs) {
-        *b = (s.v[0], s.v[1]);
-    }
+    let mut by_start: Vec<(u32, u32)> = segs.iter().map(|s| (s.v[0], s.v[1])).collect();
     by_start.sort_unstable();
     if by_start.windows(2).any(|w| w[0].0 == w[1].0) {
         return false;
@@ -308,7 +311,7 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
         .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
         .sum();
     let ext2 = extent2(segs);
-    if !(area2 > 1e-9 * ext2) {
+    if area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater) {
         return false;
     }
     all_pairs_clear(segs, segs, 1e-12 * ext2)
@@ -399,7 +402,9 @@ pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg]) -> bool {
     }
     let outside = |s: &[Seg], loop_: &[Seg]| {
         let on_loop = |v: u32| loop_.iter().any(|e| e.v[0] == v);
-        s.iter().find(|e| !on_loop(e.v[0])).is_some_and(|e| !inside(e.p[0], loop_))
+        s.iter()
+            .find(|e| !on_loop(e.v[0]))
+            .is_some_and(|e| !inside(e.p[0], loop_))
     };
     outside(a, b) && outside(b, a)
 }

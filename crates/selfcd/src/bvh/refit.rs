@@ -16,7 +16,10 @@ impl Bvh {
     pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
         self.refit_with(|t| {
             let c = mesh.corners(positions, t);
-            (Aabb::from_points(&c), NormalCone::of_triangle(c[0], c[1], c[2]))
+            (
+                Aabb::from_points(&c),
+                NormalCone::of_triangle(c[0], c[1], c[2]),
+            )
         });
     }
 
@@ -24,7 +27,8 @@ impl Bvh {
     /// continuous queries); cones become full, so no cone culling applies.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
         self.refit_with(|t| {
-            let b = Aabb::from_points(&mesh.corners(x0, t)).union(&Aabb::from_points(&mesh.corners(x1, t)));
+            let b = Aabb::from_points(&mesh.corners(x0, t))
+                .union(&Aabb::from_points(&mesh.corners(x1, t)));
             (b, NormalCone::FULL)
         });
     }

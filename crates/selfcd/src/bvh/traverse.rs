@@ -39,6 +39,20 @@ pub trait LeafVisitor: Sync {
     const SKIP_ADJACENT: bool;
     /// Tests triangles `a` and `b` (a != b) and appends what it finds to `out`.
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Self::Item>);
+
+    /// [`visit`](Self::visit), also counting what the test did in `counters`
+    /// (e.g. filter decisions); the default counts nothing.
+    #[inline]
+    fn visit_counted(
+        &self,
+        a: u32,
+        b: u32,
+        adjacent: bool,
+        out: &mut Vec<Self::Item>,
+        _counters: &mut Counters,
+    ) {
+        self.visit(a, b, adjacent, out)
+    }
 }
 
 /// Runs the self-traversal of `bvh` (refitted to `positions`) and returns what
@@ -162,9 +176,7 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         let bvh = self.bvh;
         acc.counters.node_pairs += 1;
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
-        let g = self.opts.gap;
-        let apart = (ba.min - bb.max).max_element() > g || (bb.min - ba.max).max_element() > g;
-        if apart {
+        if !ba.within(bb, self.opts.gap) {
             return None;
         }
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
@@ -177,8 +189,13 @@ impl<V: LeafVisitor> Ctx<'_, V> {
                 }
             }
             acc.counters.primitive_tests += 1;
-            self.visitor
-                .visit(a.min(b), a.max(b), adjacent, &mut acc.items);
+            self.visitor.visit_counted(
+                a.min(b),
+                a.max(b),
+                adjacent,
+                &mut acc.items,
+                &mut acc.counters,
+            );
             return None;
         }
         if self.pair_culled(a, b, acc) {
@@ -232,9 +249,19 @@ impl<V: LeafVisitor> Ctx<'_, V> {
             return false;
         }
         let bvh = self.bvh;
-        let merged = bvh.cones[a as usize].merge(&bvh.cones[b as usize]);
+        let (ca, cb) = (&bvh.cones[a as usize], &bvh.cones[b as usize]);
         let p = &bvh.patches;
-        if !merged.is_positive() || !have_common(p.boundary_of(a), p.boundary_of(b)) {
+        // Cheapest first: the merged cone can only be positive if both are, and
+        // it is only worth merging for adjacent patches (most overlapping pairs
+        // in layered cloth are not adjacent).
+        if !ca.is_positive()
+            || !cb.is_positive()
+            || !have_common(p.boundary_of(a), p.boundary_of(b))
+        {
+            return false;
+        }
+        let merged = ca.merge(cb);
+        if !merged.is_positive() {
             return false;
         }
         if self.opts.contour {
@@ -252,8 +279,10 @@ impl<V: LeafVisitor> Ctx<'_, V> {
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
-    /// `axis`? Fast path: the union's contour is a star. Otherwise each patch's
-    /// loop must be simple and the two loops meet only where the patches do.
+    /// `axis`? When they share edges the union is a disk (Euler characteristic
+    /// 1, no conflicting edge) and its contour gets the node test; when they
+    /// touch only at vertices each patch's loop must be simple and the two
+    /// loops meet only where the patches do.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, acc: &mut Acc<V::Item>) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
         let info = merge_contours(p.contour_of(a), p.contour_of(b), &mut acc.scratch);
@@ -265,10 +294,8 @@ impl<V: LeafVisitor> Ctx<'_, V> {
         let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         let plane = Plane::new(axis, box_a.union(box_b).center());
         if info.shared_edges > 0 {
-            project_contour(self.mesh, self.positions, &acc.scratch, &plane, &mut acc.segs);
-            if star_about(&acc.segs, [0.0; 2]) {
-                return true;
-            }
+            // Patches glued along edges: the union is one disk, tested as a node is.
+            return self.disk_is_height_field(&acc.scratch, &plane, [0.0; 2], &mut acc.segs);
         }
         let (ca, cb) = (plane.project(box_a.center()), plane.project(box_b.center()));
         self.disk_is_height_field(p.contour_of(a), &plane, ca, &mut acc.segs)

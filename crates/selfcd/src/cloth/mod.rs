@@ -11,6 +11,7 @@
 
 pub mod matrix;
 pub mod model;
+pub mod obstacle;
 pub mod response;
 pub mod scenes;
 pub mod sim;

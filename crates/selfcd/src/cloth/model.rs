@@ -47,6 +47,40 @@ impl Material {
         air_drag: 0.05,
     };
 
+    /// Silk-like: light (80 g/m^2), soft in shear and very easy to bend, so it
+    /// falls in many small folds.
+    pub const SILK: Material = Material {
+        density: 0.08,
+        stretch: 300.0,
+        shear: 15.0,
+        bend: 0.3,
+        damping: 0.003,
+        air_drag: 0.1,
+    };
+
+    /// Denim-like: heavy (400 g/m^2), stiff in stretch and shear, hard to
+    /// bend, so it keeps large, round folds.
+    pub const DENIM: Material = Material {
+        density: 0.4,
+        stretch: 1500.0,
+        shear: 200.0,
+        bend: 20.0,
+        damping: 0.01,
+        air_drag: 0.03,
+    };
+
+    /// The presets by name: cotton (the default), silk, denim.
+    pub const PRESETS: [(&'static str, Material); 3] = [
+        ("cotton", Material::COTTON),
+        ("silk", Material::SILK),
+        ("denim", Material::DENIM),
+    ];
+
+    /// The preset called `name`; the error lists the names.
+    pub fn preset(name: &str) -> Result<Material> {
+        crate::error::parse_name(name, &Material::PRESETS, |(n, _)| n, "material").map(|(_, m)| m)
+    }
+
     /// Checks every parameter is finite and in range (density > 0, the rest >= 0).
     pub fn validate(&self) -> Result<()> {
         let checks = [
@@ -271,6 +305,14 @@ mod tests {
         };
         assert!(matches!(
             Cloth::new(mesh.clone(), bad, &[]),
+            Err(Error::InvalidParameter(_))
+        ));
+        for (name, m) in Material::PRESETS {
+            assert_eq!(Material::preset(name).unwrap(), m);
+            m.validate().unwrap();
+        }
+        assert!(matches!(
+            Material::preset("tweed"),
             Err(Error::InvalidParameter(_))
         ));
         let nan = Material {

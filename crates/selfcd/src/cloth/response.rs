@@ -1,4 +1,8 @@
-//! Self-collision response, in three stages per step.
+//! Collision response (self and obstacle contacts alike), in three stages per
+//! step. The response only turns what the step's queries found into velocity
+//! and position changes; it runs no query itself. Contacts are four-point
+//! stencils ([`Contact`]) over the cloth's vertices, then the obstacles'
+//! (see [`crate::detect::obstacle`]); obstacle vertices have inverse mass 0.
 //!
 //! 1. **In the solve (the paper, 4.2).** A vertex closer than the thickness `d`
 //!    to a triangle, and not moving away from it fast enough, is constrained
@@ -12,27 +16,32 @@
 //!    sorted order, so that its relative normal velocity `vn` satisfies
 //!    `vn >= -(dist - d) / h` (do not get closer than `d` this step) or, inside
 //!    `d`, `vn >= push (d - dist) / h` (move a fraction `push` back out).
+//!
 //! 2b. **Continuous collisions.** The step from the start positions to
 //!    `x0 + h v` is checked with the engine's continuous query; every element
 //!    pair that would meet gets an inelastic impulse at its time of impact
-//!    (see [`continuous_impulses`]), so fast folds do not pass through in one step.
+//!    (see [`impact_impulses`]), so fast folds do not pass through in one step.
 //! 3. **Correction.** The end-of-step positions are checked for intersecting
 //!    triangle pairs with a conservative detector; the vertices of intersecting
 //!    triangles are gathered into rigid impact zones that move rigidly from
-//!    their (intersection-free) start-of-step positions, and the check repeats
-//!    until no pair intersects (see [`correct`]).
+//!    their (intersection-free) start-of-step positions; cloth triangles that
+//!    meet an obstacle move with the obstacle; the check repeats until no pair
+//!    intersects (see [`Zones`]).
+//!
+//! Impulses carry Coulomb friction, one coefficient per contact kind
+//! (cloth-cloth, cloth-obstacle).
 
 use super::solver::Filter;
-use crate::detect::continuous::Impact;
-use crate::detect::hierarchy::BvhDetector;
-use crate::detect::narrow::ElementPair;
-use crate::detect::{Detection, Detector, ProximityContacts};
-use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
-use crate::error::{Error, Result};
-use crate::mesh::Mesh;
 use super::springs::outer;
+use crate::detect::continuous::Impacts;
+use crate::detect::narrow::ElementPair;
+use crate::detect::obstacle::{self as cross, Meshes};
+use crate::detect::ProximityContacts;
+use crate::error::{Error, Result};
+use crate::geom::ccd::Pair;
+use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
+use crate::mesh::Mesh;
 use glam::{DMat3, DQuat, DVec3};
-use std::time::Instant;
 
 /// Contact thickness and how contacts are handled.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,10 +55,15 @@ pub struct ContactParams {
     pub push: f64,
     /// Most Gauss-Seidel sweeps of the impulse stage.
     pub sweeps: u32,
+    /// Coulomb friction coefficient of cloth-cloth contacts (>= 0).
+    pub friction: f64,
+    /// Coulomb friction coefficient of cloth-obstacle contacts (>= 0).
+    pub obstacle_friction: f64,
 }
 
 impl ContactParams {
-    /// Defaults scaled to a mesh: `d` = 10% and the margin 25% of the mean rest edge length.
+    /// Defaults scaled to a mesh: `d` = 10% and the margin 25% of the mean rest
+    /// edge length; friction 0.3 on cloth and 0.5 on obstacles.
     pub fn for_mesh(mesh: &Mesh) -> ContactParams {
         let e = mesh.mean_edge_length();
         ContactParams {
@@ -57,6 +71,8 @@ impl ContactParams {
             margin: 0.25 * e,
             push: 0.1,
             sweeps: 20,
+            friction: 0.3,
+            obstacle_friction: 0.5,
         }
     }
 
@@ -65,18 +81,21 @@ impl ContactParams {
         self.thickness + self.margin
     }
 
-    /// Checks ranges: d > 0, margin >= 0, push in [0, 1], all finite.
+    /// Checks ranges: d > 0, margin >= 0, push in [0, 1], friction >= 0, all finite.
     pub fn validate(&self) -> Result<()> {
         let ok = self.thickness > 0.0
             && self.thickness.is_finite()
             && self.margin >= 0.0
             && self.margin.is_finite()
-            && (0.0..=1.0).contains(&self.push);
+            && (0.0..=1.0).contains(&self.push)
+            && [self.friction, self.obstacle_friction]
+                .iter()
+                .all(|f| *f >= 0.0 && f.is_finite());
         if ok {
             Ok(())
         } else {
             Err(Error::InvalidParameter(format!(
-                "contact parameters out of range (thickness > 0, margin >= 0, push in [0, 1]): {self:?}"
+                "contact parameters out of range (thickness > 0, margin >= 0, push in [0, 1], friction >= 0): {self:?}"
             )))
         }
     }
@@ -158,35 +177,79 @@ fn vertex_triangle_contact(
     w: [f64; 3],
     distance: f64,
 ) -> Contact {
-    let scale = mesh.mean_edge_length();
-    let tri = mesh.triangles()[t as usize];
-    let [a, b, c] = tri.map(&at);
+    let [a, b, c] = mesh.triangles()[t as usize];
+    point_triangle_stencil(at, [v, a, b, c], w, distance, mesh.mean_edge_length())
+}
+
+/// Point `ids[0]` against triangle `ids[1..4]`, closest point at barycentrics
+/// `w`; `scale` is a typical edge length (for the degenerate-normal fallback).
+pub fn point_triangle_stencil(
+    at: impl Fn(u32) -> DVec3,
+    ids: [u32; 4],
+    w: [f64; 3],
+    distance: f64,
+    scale: f64,
+) -> Contact {
+    let [p, a, b, c] = ids.map(&at);
     let q = a * w[0] + b * w[1] + c * w[2];
     let face = unit_or((b - a).cross(c - a), scale * scale, DVec3::Z);
     Contact {
-        verts: [v, tri[0], tri[1], tri[2]],
+        verts: ids,
         weights: [1.0, -w[0], -w[1], -w[2]],
-        normal: unit_or(at(v) - q, scale, face),
+        normal: unit_or(p - q, scale, face),
         distance,
         kind: ContactKind::VertexTriangle,
     }
 }
 
 /// Edges `e` at positions `at`, closest points at parameters `st` along each.
-fn edge_edge_contact(mesh: &Mesh, at: impl Fn(u32) -> DVec3, e: [u32; 2], st: [f64; 2], distance: f64) -> Contact {
-    let scale = mesh.mean_edge_length();
+fn edge_edge_contact(
+    mesh: &Mesh,
+    at: impl Fn(u32) -> DVec3,
+    e: [u32; 2],
+    st: [f64; 2],
+    distance: f64,
+) -> Contact {
     let edges = &mesh.topology().edges;
     let ([a, b], [p, q]) = (edges[e[0] as usize], edges[e[1] as usize]);
+    edge_edge_stencil(at, [a, b, p, q], st, distance, mesh.mean_edge_length())
+}
+
+/// Segment `ids[0..2]` against segment `ids[2..4]`, closest points at
+/// parameters `st` along each; `scale` as for [`point_triangle_stencil`].
+pub fn edge_edge_stencil(
+    at: impl Fn(u32) -> DVec3,
+    ids: [u32; 4],
+    st: [f64; 2],
+    distance: f64,
+    scale: f64,
+) -> Contact {
     let [s, t] = st;
-    let (xa, xb, xp, xq) = (at(a), at(b), at(p), at(q));
+    let [xa, xb, xp, xq] = ids.map(&at);
     let across = unit_or((xb - xa).cross(xq - xp), scale * scale, DVec3::Z);
     let gap = (xa + (xb - xa) * s) - (xp + (xq - xp) * t);
     Contact {
-        verts: [a, b, p, q],
+        verts: ids,
         weights: [1.0 - s, s, t - 1.0, -t],
         normal: unit_or(gap, scale, across),
         distance,
         kind: ContactKind::EdgeEdge,
+    }
+}
+
+/// A stencil of `kind` over `ids` at positions `at`, with the closest points
+/// found again there (for contacts found by a continuous query).
+pub fn stencil_at(at: impl Fn(u32) -> DVec3, kind: Pair, ids: [u32; 4], scale: f64) -> Contact {
+    let [p, a, b, c] = ids.map(&at);
+    match kind {
+        Pair::PointTriangle => {
+            let (d2, w) = point_triangle_distance2(p, a, b, c);
+            point_triangle_stencil(at, ids, w, d2.sqrt(), scale)
+        }
+        Pair::EdgeEdge => {
+            let (d2, s, t) = segment_segment_distance2(p, a, b, c);
+            edge_edge_stencil(at, ids, [s, t], d2.sqrt(), scale)
+        }
     }
 }
 
@@ -201,8 +264,9 @@ fn goal(c: &Contact, p: &ContactParams, h: f64) -> f64 {
     }
 }
 
-/// Stage 1: constrains, in the solve's filter, every vertex closer than `d` to
-/// a triangle that is not separating at the goal speed. `dv_prev` is the last
+/// Stage 1: constrains, in the solve's filter, every (cloth) vertex closer
+/// than `d` to a triangle that is not separating at the goal speed; contacts
+/// whose vertex is not in the filter (an obstacle's) are left to the impulses. `dv_prev` is the last
 /// step's velocity change (the triangle's acceleration estimate). Returns the
 /// number of constraints added.
 pub fn constrain(
@@ -213,10 +277,11 @@ pub fn constrain(
     h: f64,
     filter: &mut Filter,
 ) -> usize {
-    let mut added = 0;
+    let (mut added, covered) = (0, filter.len());
     for c in contacts
         .iter()
         .filter(|c| c.kind == ContactKind::VertexTriangle && c.distance < p.thickness)
+        .filter(|c| (c.verts[0] as usize) < covered)
     {
         let (vn, want) = (c.normal_velocity(v), goal(c, p, h));
         if vn >= want {
@@ -246,19 +311,47 @@ pub struct ImpulseStats {
 /// Stage 2: mass-weighted impulses until every contact meets its goal normal
 /// velocity (or `p.sweeps` sweeps). An impulse `j` along n changes `v_k` by
 /// `w_k j n / m_k`, with `j = (goal - vn) / sum_k w_k^2 / m_k`, so momentum is
-/// conserved and pinned vertices (inverse mass 0) do not move.
+/// conserved and pinned vertices (inverse mass 0) do not move. Then Coulomb
+/// friction `mu(c)` on the total normal impulse (see [`resolve`]).
 pub fn impulses(
     contacts: &[Contact],
     inv_mass: &[f64],
     v: &mut [DVec3],
     p: &ContactParams,
     h: f64,
+    mu: impl Fn(&Contact) -> f64,
 ) -> ImpulseStats {
-    resolve(contacts, inv_mass, v, p.sweeps, 1e-9 * p.thickness / h, |c| goal(c, p, h))
+    resolve(
+        contacts,
+        inv_mass,
+        v,
+        p.sweeps,
+        1e-9 * p.thickness / h,
+        |c| goal(c, p, h),
+        mu,
+    )
+}
+
+/// `sum_k w_k^2 / m_k`: the inverse of the contact's effective mass.
+fn inverse_effective_mass(c: &Contact, inv_mass: &[f64]) -> f64 {
+    (0..4)
+        .map(|k| c.weights[k] * c.weights[k] * inv_mass[c.verts[k] as usize])
+        .sum()
+}
+
+/// Adds the impulse `j` (a vector) to the contact's vertices: `v_k += w_k j / m_k`.
+fn apply(c: &Contact, inv_mass: &[f64], v: &mut [DVec3], j: DVec3) {
+    for k in 0..4 {
+        let i = c.verts[k] as usize;
+        v[i] += j * (c.weights[k] * inv_mass[i]);
+    }
 }
 
 /// Gauss-Seidel over `contacts` until each has relative normal velocity at
-/// least `goal(c)` (within `slack`), or `sweeps` sweeps.
+/// least `goal(c)` (within `slack`), or `sweeps` sweeps. Then one friction
+/// pass (Coulomb): each contact's relative tangential velocity `vt` is reduced
+/// by a tangential impulse of at most `mu(c)` times its total normal impulse,
+/// stopping the sliding when that is enough (static friction).
 fn resolve(
     contacts: &[Contact],
     inv_mass: &[f64],
@@ -266,27 +359,22 @@ fn resolve(
     sweeps: u32,
     slack: f64,
     goal: impl Fn(&Contact) -> f64,
+    mu: impl Fn(&Contact) -> f64,
 ) -> ImpulseStats {
     let mut stats = ImpulseStats::default();
+    let mut total = vec![0.0; contacts.len()];
     while stats.sweeps < sweeps {
         stats.sweeps += 1;
         let mut applied = 0;
-        for c in contacts {
+        for (c, total) in contacts.iter().zip(&mut total) {
             let deficit = goal(c) - c.normal_velocity(v);
-            if deficit <= slack {
-                continue;
-            }
-            let w_m: f64 = (0..4)
-                .map(|k| c.weights[k] * c.weights[k] * inv_mass[c.verts[k] as usize])
-                .sum();
-            if !(w_m > 0.0) {
+            let w_m = inverse_effective_mass(c, inv_mass);
+            if deficit <= slack || w_m <= 0.0 {
                 continue;
             }
             let j = deficit / w_m;
-            for k in 0..4 {
-                let i = c.verts[k] as usize;
-                v[i] += c.normal * (c.weights[k] * inv_mass[i] * j);
-            }
+            apply(c, inv_mass, v, c.normal * j);
+            *total += j;
             applied += 1;
         }
         stats.impulses += applied;
@@ -294,97 +382,99 @@ fn resolve(
             break;
         }
     }
+    for (c, &jn) in contacts.iter().zip(&total) {
+        let mu = mu(c);
+        if !(jn > 0.0 && mu > 0.0) {
+            continue;
+        }
+        let u = c.combine(v);
+        let vt = u - c.normal * u.dot(c.normal);
+        let (speed, w_m) = (vt.length(), inverse_effective_mass(c, inv_mass));
+        if speed > 0.0 && w_m > 0.0 {
+            let jt = (speed / w_m).min(mu * jn);
+            apply(c, inv_mass, v, vt * (-jt / speed));
+        }
+    }
     stats
 }
 
-/// What the continuous stage did.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ContinuousStats {
-    /// Continuous queries run.
-    pub rounds: u32,
-    /// Element pairs found meeting during the step, over all rounds.
-    pub impacts: u64,
-    /// Impulses applied, over all rounds.
-    pub impulses: u64,
-    /// Query time (s).
-    pub detect_time: f64,
-}
-
-/// Stage 2b, continuous collisions (Bridson et al. 2002): the step moves every
-/// vertex from `x0` to `x0 + h v`. Each element pair that comes within
-/// `separation` on the way (the engine's continuous query, no false negatives)
+/// Stage 2b, continuous collisions (Bridson et al. 2002): given the element
+/// pairs that come within the separation while every vertex moves from `x0`
+/// to `x0 + h v` (the engine's continuous query, run by the caller), each
 /// gets an inelastic impulse that stops its approach along the normal at its
-/// time of impact; the query repeats with the new velocities, up to `rounds`
-/// times. What is left is for the correction stage.
-pub fn continuous_impulses(
-    query: &mut BvhDetector,
-    x0: &[DVec3],
+/// time of impact, then friction `mu(c)`. The caller repeats the query with
+/// the new velocities until nothing meets; what is left is for the correction stage.
+pub fn impact_impulses(
+    hits: &[Contact],
     inv_mass: &[f64],
     v: &mut [DVec3],
-    h: f64,
-    separation: f64,
-    rounds: u32,
-) -> Result<ContinuousStats> {
-    let mesh = query.mesh().clone();
-    let mut stats = ContinuousStats::default();
-    let mut x1 = vec![DVec3::ZERO; x0.len()];
-    while stats.rounds < rounds {
-        for ((e, a), b) in x1.iter_mut().zip(x0).zip(v.iter()) {
-            *e = *a + *b * h;
-        }
-        let t0 = Instant::now();
-        let found = query.continuous(x0, &x1, separation)?;
-        stats.detect_time += t0.elapsed().as_secs_f64();
-        stats.rounds += 1;
-        let hits: Vec<Contact> = found
-            .vertex_triangle
-            .iter()
-            .chain(&found.edge_edge)
-            .map(|i| impact_contact(&mesh, x0, &x1, i))
-            .collect();
-        stats.impacts += hits.len() as u64;
-        let applied = resolve(&hits, inv_mass, v, 20, 0.0, |_| 0.0).impulses;
-        stats.impulses += applied;
-        if applied == 0 {
-            break;
-        }
-    }
-    Ok(stats)
+    mu: impl Fn(&Contact) -> f64,
+) -> ImpulseStats {
+    resolve(hits, inv_mass, v, 20, 0.0, |_| 0.0, mu)
 }
 
-/// The contact of an impact at its time: closest points and normal there.
-fn impact_contact(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], i: &Impact) -> Contact {
-    let at = |k: u32| x0[k as usize].lerp(x1[k as usize], i.toi);
-    match i.pair {
-        ElementPair::VertexTriangle(v, t) => {
-            let [a, b, c] = mesh.triangles()[t as usize].map(at);
-            let (d2, w) = point_triangle_distance2(at(v), a, b, c);
-            vertex_triangle_contact(mesh, at, v, t, w, d2.sqrt())
-        }
-        ElementPair::EdgeEdge(e0, e1) => {
-            let edges = &mesh.topology().edges;
-            let ([a, b], [p, q]) = (edges[e0 as usize], edges[e1 as usize]);
-            let (d2, s, t) = segment_segment_distance2(at(a), at(b), at(p), at(q));
-            edge_edge_contact(mesh, at, [e0, e1], [s, t], d2.sqrt())
-        }
-    }
+/// The contacts of self impacts, at their times of impact on the way from `x0` to `x1`.
+pub fn impact_contacts(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], found: &Impacts) -> Vec<Contact> {
+    let edges = &mesh.topology().edges;
+    let scale = mesh.mean_edge_length();
+    found
+        .vertex_triangle
+        .iter()
+        .chain(&found.edge_edge)
+        .map(|i| {
+            let at = |k: u32| x0[k as usize].lerp(x1[k as usize], i.toi);
+            let (kind, ids) = match i.pair {
+                ElementPair::VertexTriangle(v, t) => {
+                    let [a, b, c] = mesh.triangles()[t as usize];
+                    (Pair::PointTriangle, [v, a, b, c])
+                }
+                ElementPair::EdgeEdge(e0, e1) => {
+                    let ([a, b], [p, q]) = (edges[e0 as usize], edges[e1 as usize]);
+                    (Pair::EdgeEdge, [a, b, p, q])
+                }
+            };
+            stencil_at(at, kind, ids, scale)
+        })
+        .collect()
 }
 
-/// What the correction stage did.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Correction {
-    /// Detections run (the last one at the final positions).
-    pub rounds: u32,
-    /// Vertices moved rigidly with an impact zone (or put back, if frozen).
-    pub zone_vertices: usize,
-    /// Impact zones at the end of the stage.
-    pub zones: usize,
-    /// Intersecting pairs left (0 unless the step started with intersections).
-    pub remaining: usize,
-    /// Detection time (s).
-    pub detect_time: f64,
-    /// The last detection, at the final positions.
-    pub detection: Detection,
+/// The contacts of cloth-obstacle proximity pairs at combined positions `x`.
+pub fn cross_contacts(m: Meshes, x: &[DVec3], found: &[cross::Near]) -> Vec<Contact> {
+    let scale = m.cloth.mean_edge_length();
+    let at = |k: u32| x[k as usize];
+    found
+        .iter()
+        .map(|n| match m.stencil(n.pair) {
+            (Pair::PointTriangle, ids) => {
+                point_triangle_stencil(at, ids, n.params, n.distance, scale)
+            }
+            (Pair::EdgeEdge, ids) => {
+                edge_edge_stencil(at, ids, [n.params[0], n.params[1]], n.distance, scale)
+            }
+        })
+        .collect()
+}
+
+/// The contacts of cloth-obstacle impacts, at their times of impact (combined positions).
+pub fn cross_impact_contacts(
+    m: Meshes,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    found: &[cross::Impact],
+) -> Vec<Contact> {
+    let scale = m.cloth.mean_edge_length();
+    found
+        .iter()
+        .map(|i| {
+            let (kind, ids) = m.stencil(i.pair);
+            stencil_at(
+                |k: u32| x0[k as usize].lerp(x1[k as usize], i.toi),
+                kind,
+                ids,
+                scale,
+            )
+        })
+        .collect()
 }
 
 /// Start-of-step state and masses the correction stage moves zones with.
@@ -399,64 +489,85 @@ pub struct StepStart<'a> {
     pub h: f64,
 }
 
-/// Stage 3, rigid impact zones (Provot 1997; Bridson et al. 2002), checked
-/// with `detector` (which must be conservative for the guarantee):
+/// Stage 3, rigid impact zones (Provot 1997; Bridson et al. 2002). The step
+/// runs the loop, with a conservative intersection check at every round:
 ///
-/// while the detector finds intersecting pairs at `x`: merge the vertices of
-/// each pair's two triangles into one zone (union-find); every zone then moves
-/// rigidly from its start-of-step positions with its own momentum and angular
-/// momentum, `x_i = c0 + h v_c + R(h w) (x0_i - c0)`, `w = I^-1 L` (pinned
-/// vertices count with their zero velocity and stay put). A rigid motion keeps
-/// the zone's own triangles as intersection-free as they were at `x0`, so each
-/// round must merge or grow zones, unless a pin stayed behind; if a round
-/// cannot, the zones still intersecting are frozen at `x0` with zero velocity,
-/// and if that cannot help either, the stage stops and reports the pairs left.
-pub fn correct(detector: &mut dyn Detector, start: &StepStart, x: &mut [DVec3], v: &mut [DVec3]) -> Result<Correction> {
-    let mesh = detector.mesh().clone();
-    let tris = mesh.triangles();
-    let mut zones = Zones::new(x.len(), start.pinned);
-    let v_in = v.to_vec();
-    let mut out = Correction::default();
-    loop {
-        let t0 = Instant::now();
-        let det = detector.detect(x)?;
-        out.detect_time += t0.elapsed().as_secs_f64();
-        out.rounds += 1;
-        let mut changed = false;
-        for &[a, b] in &det.pairs {
-            let (ta, tb) = (tris[a as usize], tris[b as usize]);
-            for &i in ta.iter().chain(&tb) {
-                changed |= zones.join(ta[0] as usize, i as usize);
-            }
-        }
-        if !changed && !det.pairs.is_empty() {
-            for &[a, b] in &det.pairs {
-                changed |= zones.freeze(tris[a as usize][0] as usize);
-                changed |= zones.freeze(tris[b as usize][0] as usize);
-            }
-        }
-        if !changed {
-            out.remaining = det.pairs.len();
-            out.zones = zones.count();
-            out.zone_vertices = zones.members();
-            out.detection = det;
-            return Ok(out);
-        }
-        zones.move_rigidly(start, &v_in, x, v);
-    }
-}
-
-/// Impact zones: a union-find over vertices, with membership and a frozen flag per root.
-struct Zones {
+/// while a check finds intersecting pairs at `x`: [`Zones::absorb`] merges the
+/// vertices of each self-intersecting pair's two triangles into one zone
+/// (union-find), and [`Zones::bind`] ties the vertices of each cloth triangle
+/// that meets an obstacle to the obstacle (they move with it from their start
+/// positions); [`Zones::move_rigidly`] then moves every zone rigidly from its
+/// start-of-step positions with its own momentum and angular momentum,
+/// `x_i = c0 + h v_c + R(h w) (x0_i - c0)`, `w = I^-1 L` (pinned and bound
+/// vertices count with their own velocity and keep their position). A rigid
+/// motion keeps the zone's own triangles as intersection-free as they were at
+/// `x0`, so each round must merge or grow zones, unless a pin stayed behind;
+/// if a round cannot, the zones still intersecting are frozen at `x0` with
+/// zero velocity, and if that cannot help either, the loop stops and reports
+/// the pairs left.
+pub struct Zones {
     parent: Vec<u32>,
     member: Vec<bool>,
     frozen: Vec<bool>,
-    pinned: Vec<bool>,
+    /// Pinned vertices, then bound ones: they keep their position.
+    fixed: Vec<bool>,
+    /// Displacement over the step of a vertex bound to an obstacle.
+    bound: Vec<Option<DVec3>>,
 }
 
 impl Zones {
-    fn new(n: usize, pinned: &[bool]) -> Zones {
-        Zones { parent: (0..n as u32).collect(), member: vec![false; n], frozen: vec![false; n], pinned: pinned.to_vec() }
+    /// No zone yet; `pinned` vertices never move.
+    pub fn new(pinned: &[bool]) -> Zones {
+        let n = pinned.len();
+        Zones {
+            parent: (0..n as u32).collect(),
+            member: vec![false; n],
+            frozen: vec![false; n],
+            fixed: pinned.to_vec(),
+            bound: vec![None; n],
+        }
+    }
+
+    /// Grows zones from intersecting triangle pairs of `mesh`; if none grew,
+    /// freezes the zones of the pairs. True when anything changed.
+    pub fn absorb(&mut self, mesh: &Mesh, pairs: &[[u32; 2]]) -> bool {
+        let tris = mesh.triangles();
+        let mut changed = false;
+        for &[a, b] in pairs {
+            let (ta, tb) = (tris[a as usize], tris[b as usize]);
+            for &i in ta.iter().chain(&tb) {
+                changed |= self.join(ta[0] as usize, i as usize);
+            }
+        }
+        if !changed {
+            for &[a, b] in pairs {
+                changed |= self.freeze(tris[a as usize][0] as usize);
+                changed |= self.freeze(tris[b as usize][0] as usize);
+            }
+        }
+        changed
+    }
+
+    /// Binds the (free) vertices of `triangles` to an obstacle: vertex `i`
+    /// moves by `displacement(i)` from its start position. True when any was new.
+    pub fn bind(
+        &mut self,
+        mesh: &Mesh,
+        triangles: impl IntoIterator<Item = u32>,
+        displacement: impl Fn(usize) -> DVec3,
+    ) -> bool {
+        let mut changed = false;
+        for t in triangles {
+            for &i in &mesh.triangles()[t as usize] {
+                let i = i as usize;
+                if !self.fixed[i] {
+                    (self.fixed[i], self.bound[i], self.member[i]) =
+                        (true, Some(displacement(i)), true);
+                    changed = true;
+                }
+            }
+        }
+        changed
     }
 
     fn root(&mut self, mut i: usize) -> usize {
@@ -490,16 +601,21 @@ impl Zones {
         !std::mem::replace(&mut self.frozen[r], true)
     }
 
-    fn members(&self) -> usize {
+    /// Vertices in a zone or bound to an obstacle.
+    pub fn members(&self) -> usize {
         self.member.iter().filter(|&&m| m).count()
     }
 
-    fn count(&mut self) -> usize {
-        (0..self.parent.len()).filter(|&i| self.member[i] && self.root(i) == i).count()
+    /// Number of zones (a bound vertex alone counts as one).
+    pub fn count(&mut self) -> usize {
+        (0..self.parent.len())
+            .filter(|&i| self.member[i] && self.root(i) == i)
+            .count()
     }
 
-    /// Moves every zone rigidly from `x0` with the momentum of the velocities `u`.
-    fn move_rigidly(&mut self, s: &StepStart, u: &[DVec3], x: &mut [DVec3], v: &mut [DVec3]) {
+    /// Moves every zone rigidly from `s.x0` with the momentum of the velocities
+    /// `u` (those the step had before the correction), and bound vertices with their obstacle.
+    pub fn move_rigidly(&mut self, s: &StepStart, u: &[DVec3], x: &mut [DVec3], v: &mut [DVec3]) {
         let n = x.len();
         let mut by_root: Vec<Vec<u32>> = vec![Vec::new(); n];
         for i in 0..n {
@@ -508,9 +624,19 @@ impl Zones {
                 by_root[r].push(i as u32);
             }
         }
+        for (i, d) in self.bound.iter().enumerate() {
+            if let Some(d) = d {
+                x[i] = s.x0[i] + *d;
+                v[i] = *d / s.h;
+            }
+        }
         for (r, verts) in by_root.iter().enumerate().filter(|(_, z)| !z.is_empty()) {
-            let motion = if self.frozen[r] { RigidMotion::default() } else { RigidMotion::of(verts, s, u) };
-            for &i in verts.iter().filter(|&&i| !self.pinned[i as usize]) {
+            let motion = if self.frozen[r] {
+                RigidMotion::default()
+            } else {
+                RigidMotion::of(verts, s, u)
+            };
+            for &i in verts.iter().filter(|&&i| !self.fixed[i as usize]) {
                 let i = i as usize;
                 x[i] = motion.apply(s.x0[i]);
                 v[i] = (x[i] - s.x0[i]) / s.h;
@@ -529,7 +655,11 @@ struct RigidMotion {
 
 impl Default for RigidMotion {
     fn default() -> Self {
-        RigidMotion { c0: DVec3::ZERO, t: DVec3::ZERO, r: DQuat::IDENTITY }
+        RigidMotion {
+            c0: DVec3::ZERO,
+            t: DVec3::ZERO,
+            r: DQuat::IDENTITY,
+        }
     }
 }
 
@@ -539,7 +669,11 @@ impl RigidMotion {
     fn of(verts: &[u32], s: &StepStart, u: &[DVec3]) -> RigidMotion {
         let m = |i: u32| s.mass[i as usize];
         let total: f64 = verts.iter().map(|&i| m(i)).sum();
-        let c0 = verts.iter().map(|&i| s.x0[i as usize] * m(i)).sum::<DVec3>() / total;
+        let c0 = verts
+            .iter()
+            .map(|&i| s.x0[i as usize] * m(i))
+            .sum::<DVec3>()
+            / total;
         let vc = verts.iter().map(|&i| u[i as usize] * m(i)).sum::<DVec3>() / total;
         let (mut l, mut inertia) = (DVec3::ZERO, DMat3::ZERO);
         for &i in verts {
@@ -548,11 +682,20 @@ impl RigidMotion {
             inertia += (DMat3::from_diagonal(DVec3::splat(r.length_squared())) - outer(r)) * m(i);
         }
         // A small regularisation keeps a (nearly) collinear zone's inertia invertible.
-        let eps = 1e-9 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z) + f64::MIN_POSITIVE;
+        let eps =
+            1e-9 * (inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z) + f64::MIN_POSITIVE;
         let inertia = inertia + DMat3::from_diagonal(DVec3::splat(eps));
-        let w = if inertia.determinant() > 0.0 { inertia.inverse() * l } else { DVec3::ZERO };
+        let w = if inertia.determinant() > 0.0 {
+            inertia.inverse() * l
+        } else {
+            DVec3::ZERO
+        };
         let angle = w.length() * s.h;
-        let r = if angle > 0.0 && angle.is_finite() { DQuat::from_axis_angle(w / w.length(), angle) } else { DQuat::IDENTITY };
+        let r = if angle > 0.0 && angle.is_finite() {
+            DQuat::from_axis_angle(w / w.length(), angle)
+        } else {
+            DQuat::IDENTITY
+        };
         RigidMotion { c0, t: vc * s.h, r }
     }
 

@@ -1,23 +1,33 @@
-//! `Simulation`: a cloth, its state, and a detector, stepped in time.
+//! `Simulation`: a cloth, its state, obstacles and detectors, stepped in time.
 //!
-//! One step of length h:
-//! 1. proximity contacts within `d + margin` at the current positions (from the
-//!    end of the previous step's detection, or a fresh one on the first step);
+//! Data flows one way through a step of length h, and the step alone runs
+//! (and times) the queries:
+//! 1. one detection pass at the current positions: self proximity within
+//!    `d + margin` (the method's detector) and cloth-obstacle proximity (the
+//!    obstacles at the start of the step);
 //! 2. assemble and solve the backward Euler system with the filter: pins fixed,
 //!    vertex-triangle contacts inside `d` constrained along their normal;
-//! 3. `v += dv`, contact impulses, `x += h v`;
-//! 4. correction: no intersecting triangle pair is left at the end of the step.
+//! 3. `v += dv`, contact impulses with friction;
+//! 4. continuous stage: continuous queries (self, and cloth against the
+//!    obstacles moving over the step) and inelastic impulses, repeated;
+//! 5. `x += h v`;
+//! 6. correction: a conservative intersection check (self, and cloth against
+//!    the obstacles at the end of the step) and impact zones, repeated until
+//!    no intersecting triangle pair is left. Self-intersections the state
+//!    already had at the start of the step (an input may come with some) are
+//!    left alone and still counted in [`StepStats::intersections`]; a state
+//!    free of them stays free.
 //!
-//! The detector owns its BVH (and any other state between frames); the
-//! simulation owns positions and velocities and only hands the detector
-//! positions. When the chosen detection method is not conservative, a second,
-//! conservative detector (`bvh-cones-contour`) runs the end-of-step check.
+//! The detectors own their hierarchies; the simulation owns positions and
+//! velocities and hands the detectors positions.
 
 use super::model::{Cloth, Energy};
-use super::response::{self, ContactKind, ContactParams, StepStart};
+use super::obstacle::{Collider, Obstacles};
+use super::response::{self, Contact, ContactKind, ContactParams, StepStart, Zones};
 use super::solver::{Filter, Pcg, PcgOptions, System};
+use crate::bvh::{build::build, Bvh};
 use crate::detect::hierarchy::BvhDetector;
-use crate::detect::{new_detector, Detection, Detector, DetectorOptions, Method};
+use crate::detect::{new_detector, Detector, DetectorOptions, Method};
 use crate::error::{Error, Result};
 use crate::stats::FrameStats;
 use glam::DVec3;
@@ -70,6 +80,8 @@ impl SimOptions {
 const CONTINUOUS_SEPARATION: f64 = 0.5;
 /// Most continuous queries per step.
 const CONTINUOUS_ROUNDS: u32 = 4;
+/// Most correction rounds per step.
+const CORRECTION_ROUNDS: u32 = 64;
 
 /// What one step did and cost. Times are wall-clock seconds.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -78,12 +90,14 @@ pub struct StepStats {
     pub iterations: u32,
     /// Final relative residual of the solve.
     pub residual: f64,
-    /// Stats of the method's last detection call this step (at the end-of-step positions).
+    /// Stats of the method's detection pass at the start of the step.
     pub detection: FrameStats,
-    /// Proximity contacts responded to this step (vertex-triangle + edge-edge).
+    /// Proximity contacts responded to this step (vertex-triangle + edge-edge, self and obstacle).
     pub contacts: usize,
     /// Of which vertex-triangle.
     pub vertex_triangle: usize,
+    /// Of which cloth-obstacle.
+    pub obstacle_contacts: usize,
     /// Contact constraints put in the solve's filter.
     pub constrained: usize,
     /// Contact impulses applied.
@@ -93,25 +107,38 @@ pub struct StepStats {
     /// Element pairs the continuous stage found meeting during the step (all rounds).
     pub ccd_impacts: u64,
     /// Vertices whose end-of-step motion the correction stage replaced by the
-    /// rigid motion of their impact zone (or froze at the start of the step).
+    /// rigid motion of their impact zone, froze, or bound to an obstacle.
     pub reverted: usize,
     /// Impact zones formed by the correction stage.
     pub zones: usize,
-    /// Detections run by the correction stage.
+    /// Intersection checks run by the correction stage.
     pub correction_rounds: u32,
-    /// Intersecting triangle pairs left at the end of the step (0 unless it started with some).
+    /// Intersecting triangle pairs left at the end of the step, self and
+    /// cloth-obstacle (0 unless it started with some).
     pub intersections: usize,
+    /// Of which cloth-obstacle.
+    pub obstacle_intersections: usize,
     /// Assembly and solve time.
     pub solve_time: f64,
-    /// Detection time (every detector call this step).
+    /// Self-collision query time (proximity, continuous and intersection checks).
     pub detect_time: f64,
-    /// Contact response time, without detection.
+    /// Cloth-obstacle query time (the same three).
+    pub obstacle_time: f64,
+    /// Contact response time (everything else the step does).
     pub response_time: f64,
     /// The whole step.
     pub step_time: f64,
 }
 
-/// A cloth in motion: state, solver and detectors.
+/// Runs `f`, adding its wall-clock time to `*acc`.
+fn timed<T>(acc: &mut f64, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let out = f();
+    *acc += t0.elapsed().as_secs_f64();
+    out
+}
+
+/// A cloth in motion: state, obstacles, solver and detectors.
 pub struct Simulation {
     cloth: Cloth,
     opts: SimOptions,
@@ -119,11 +146,17 @@ pub struct Simulation {
     v: Vec<DVec3>,
     dv: Vec<DVec3>,
     inv_mass: Vec<f64>,
+    /// The method's detector: proximity at the start of each step.
     detector: Box<dyn Detector>,
-    guard: Option<Box<dyn Detector>>,
-    /// Hierarchy for the continuous stage (swept boxes), when self-collision is on.
-    continuous: Option<BvhDetector>,
-    pending: Option<Detection>,
+    /// Conservative intersection check of the correction stage.
+    checker: Box<dyn Detector>,
+    /// Self-intersecting pairs of the current state (sorted): the correction
+    /// leaves these alone (an input may start with some), and removes any other.
+    tolerated: Vec<[u32; 2]>,
+    /// Hierarchy for the self continuous query (swept boxes).
+    continuous: BvhDetector,
+    /// Obstacles, with the cloth hierarchy their queries traverse.
+    obstacles: Option<(Obstacles, Bvh)>,
     system: System,
     pcg: Pcg,
     time: f64,
@@ -132,7 +165,7 @@ pub struct Simulation {
 
 impl Simulation {
     /// A simulation of `cloth` at rest in its rest shape, detecting self-contact
-    /// with `method`.
+    /// with `method`, without obstacles.
     pub fn new(cloth: Cloth, method: Method, opts: SimOptions) -> Result<Simulation> {
         opts.validate()?;
         let mesh = cloth.mesh().clone();
@@ -144,16 +177,13 @@ impl Simulation {
                 ..Default::default()
             },
         )?;
-        let guard = if method.is_conservative() {
-            None
-        } else {
-            Some(new_detector(
-                mesh.clone(),
-                Method::BvhConesContour,
-                &DetectorOptions::default(),
-            )?)
-        };
-        let continuous = opts.self_collision.then(|| BvhDetector::new(mesh.clone(), Method::Bvh, 0.0));
+        let mut checker = new_detector(
+            mesh.clone(),
+            Method::BvhConesContour,
+            &DetectorOptions::default(),
+        )?;
+        let tolerated = checker.detect(mesh.rest())?.pairs;
+        let continuous = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
         let n = mesh.n_vertices();
         Ok(Simulation {
             x: mesh.rest().to_vec(),
@@ -165,12 +195,30 @@ impl Simulation {
             cloth,
             opts,
             detector,
-            guard,
+            checker,
+            tolerated,
             continuous,
-            pending: None,
+            obstacles: None,
             time: 0.0,
             steps: 0,
         })
+    }
+
+    /// Sets the obstacles the cloth collides with (`None`: no obstacle). They
+    /// are played from the simulation's current time onwards, from their time 0.
+    pub fn set_obstacles(&mut self, obstacles: Option<Obstacles>) {
+        self.obstacles = obstacles.map(|o| (o, build(self.cloth.mesh())));
+    }
+
+    /// The obstacles, if any.
+    pub fn obstacles(&self) -> Option<&Obstacles> {
+        self.obstacles.as_ref().map(|(o, _)| o)
+    }
+
+    /// Obstacle positions (merged mesh) at the current time, empty without obstacles.
+    pub fn obstacle_positions(&self) -> Vec<DVec3> {
+        self.obstacles()
+            .map_or_else(Vec::new, |o| o.positions_at(self.time))
     }
 
     /// Replaces the state. Pinned vertices keep the given positions with zero velocity.
@@ -183,9 +231,9 @@ impl Simulation {
                 *vi = DVec3::ZERO;
             }
         }
+        self.tolerated = self.checker.detect(&x)?.pairs;
         (self.x, self.v) = (x, v);
         self.dv.iter_mut().for_each(|d| *d = DVec3::ZERO);
-        self.pending = None;
         Ok(())
     }
 
@@ -229,115 +277,194 @@ impl Simulation {
         self.cloth.energy(&self.x, &self.v)
     }
 
-    /// Advances the simulation by one time step.
+    /// Advances the simulation by one time step (see the module doc).
     pub fn step(&mut self) -> Result<StepStats> {
         let t_step = Instant::now();
-        let h = self.opts.dt;
+        let (h, n) = (self.opts.dt, self.x.len());
+        let contact = self.opts.contact;
         let mut st = StepStats::default();
-        let contacts = if self.opts.self_collision {
-            let det = match self.pending.take() {
-                Some(d) => d,
-                None => self.timed_detect(&mut st)?,
-            };
-            let t0 = Instant::now();
-            let c = response::gather(self.cloth.mesh(), &self.x, &det.proximity);
-            st.response_time += t0.elapsed().as_secs_f64();
-            c
-        } else {
-            Vec::new()
+        // Combined state: the cloth's vertices, then the obstacles' (inverse mass 0).
+        let (o0, o1) = match &self.obstacles {
+            Some((o, _)) => (o.positions_at(self.time), o.positions_at(self.time + h)),
+            None => (Vec::new(), Vec::new()),
         };
+        let x0: Vec<DVec3> = self.x.iter().chain(&o0).copied().collect();
+        let obstacle_v: Vec<DVec3> = o0.iter().zip(&o1).map(|(a, b)| (*b - *a) / h).collect();
+        let inv_mass: Vec<f64> = self
+            .inv_mass
+            .iter()
+            .copied()
+            .chain(o0.iter().map(|_| 0.0))
+            .collect();
+
+        // 1. One detection pass at the start positions.
+        let mut contacts = Vec::new();
+        if self.opts.self_collision {
+            let det = timed(&mut st.detect_time, || self.detector.detect(&self.x))?;
+            st.detection = det.stats;
+            contacts = response::gather(self.cloth.mesh(), &self.x, &det.proximity);
+        }
+        if let Some((obs, bvh)) = self.obstacles.as_mut() {
+            let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
+            let near = timed(&mut st.obstacle_time, || {
+                c.proximity(&x0, contact.detection_distance())
+            });
+            let found = response::cross_contacts(c.meshes, &x0, &near);
+            st.obstacle_contacts = found.len();
+            contacts.extend(found);
+        }
         st.contacts = contacts.len();
         st.vertex_triangle = contacts
             .iter()
             .filter(|c| c.kind == ContactKind::VertexTriangle)
             .count();
 
-        let t0 = Instant::now();
+        // 2. Solve, with vertex-triangle contacts in the filter.
+        let mut v: Vec<DVec3> = self.v.iter().chain(&obstacle_v).copied().collect();
         let mut filter = Filter::new(self.cloth.pinned());
-        st.constrained = response::constrain(
-            &contacts,
-            &self.v,
-            &self.dv,
-            &self.opts.contact,
-            h,
-            &mut filter,
-        );
-        let t1 = Instant::now();
-        self.system.assemble(&self.cloth, &self.x, &self.v, h);
-        let pcg = self.pcg.solve(
-            &self.system.a,
-            &self.system.b,
-            &filter,
-            &mut self.dv,
-            self.opts.pcg,
-        );
+        let dv_prev: Vec<DVec3> = self
+            .dv
+            .iter()
+            .copied()
+            .chain(o0.iter().map(|_| DVec3::ZERO))
+            .collect();
+        st.constrained = response::constrain(&contacts, &v, &dv_prev, &contact, h, &mut filter);
+        let pcg = timed(&mut st.solve_time, || {
+            self.system.assemble(&self.cloth, &self.x, &self.v, h);
+            self.pcg.solve(
+                &self.system.a,
+                &self.system.b,
+                &filter,
+                &mut self.dv,
+                self.opts.pcg,
+            )
+        });
         (st.iterations, st.residual) = (pcg.iterations, pcg.residual);
-        let t2 = Instant::now();
-        st.solve_time = (t2 - t1).as_secs_f64();
 
-        let x0 = self.x.clone();
-        for (v, dv) in self.v.iter_mut().zip(&self.dv) {
+        // 3. Velocities and contact impulses.
+        for (v, dv) in v.iter_mut().zip(&self.dv) {
             *v += *dv;
         }
-        st.impulses = response::impulses(
-            &contacts,
-            &self.inv_mass,
-            &mut self.v,
-            &self.opts.contact,
-            h,
-        )
-        .impulses;
-        if let Some(query) = self.continuous.as_mut() {
-            let separation = CONTINUOUS_SEPARATION * self.opts.contact.thickness;
-            let c = response::continuous_impulses(query, &x0, &self.inv_mass, &mut self.v, h, separation, CONTINUOUS_ROUNDS)?;
-            (st.ccd_rounds, st.ccd_impacts) = (c.rounds, c.impacts);
-            st.impulses += c.impulses;
-            st.detect_time += c.detect_time;
-            st.response_time -= c.detect_time;
+        let mu = |c: &Contact| {
+            if c.verts.iter().any(|&k| k as usize >= n) {
+                contact.obstacle_friction
+            } else {
+                contact.friction
+            }
+        };
+        st.impulses = response::impulses(&contacts, &inv_mass, &mut v, &contact, h, mu).impulses;
+
+        // 4. Continuous stage.
+        let separation = CONTINUOUS_SEPARATION * contact.thickness;
+        let mut x1 = x0.clone();
+        while st.ccd_rounds < CONTINUOUS_ROUNDS {
+            for ((e, a), b) in x1.iter_mut().zip(&x0).zip(&v) {
+                *e = *a + *b * h;
+            }
+            st.ccd_rounds += 1;
+            let mut hits = Vec::new();
+            if self.opts.self_collision {
+                let (c0, c1) = (&x0[..n], &x1[..n]);
+                let found = timed(&mut st.detect_time, || {
+                    self.continuous.continuous(c0, c1, separation)
+                })?;
+                hits = response::impact_contacts(self.cloth.mesh(), c0, c1, &found);
+            }
+            if let Some((obs, bvh)) = self.obstacles.as_mut() {
+                let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
+                let found = timed(&mut st.obstacle_time, || c.continuous(&x0, &x1, separation));
+                hits.extend(response::cross_impact_contacts(c.meshes, &x0, &x1, &found));
+            }
+            st.ccd_impacts += hits.len() as u64;
+            let applied = response::impact_impulses(&hits, &inv_mass, &mut v, mu).impulses;
+            st.impulses += applied;
+            if applied == 0 {
+                break;
+            }
         }
+
+        // 5. Positions.
+        v.truncate(n);
+        self.v = v;
         for (x, v) in self.x.iter_mut().zip(&self.v) {
             *x += *v * h;
         }
-        st.response_time += (t1 - t0).as_secs_f64() + t2.elapsed().as_secs_f64();
 
-        if self.opts.self_collision {
-            self.correct(&x0, &mut st)?;
-        }
+        // 6. Correction.
+        self.correct(&x0[..n], &o0, &o1, &mut st)?;
         self.time += h;
         self.steps += 1;
         st.step_time = t_step.elapsed().as_secs_f64();
+        st.response_time = st.step_time - st.solve_time - st.detect_time - st.obstacle_time;
         Ok(st)
     }
 
-    /// Runs the detector at the current positions, adding its time to `st`.
-    fn timed_detect(&mut self, st: &mut StepStats) -> Result<Detection> {
-        let t0 = Instant::now();
-        let det = self.detector.detect(&self.x)?;
-        st.detect_time += t0.elapsed().as_secs_f64();
-        st.detection = det.stats.clone();
-        Ok(det)
+    /// The correction stage: intersection checks at the end positions
+    /// (obstacles at `o1`) and impact zones from the start positions `x0`.
+    fn correct(
+        &mut self,
+        x0: &[DVec3],
+        o0: &[DVec3],
+        o1: &[DVec3],
+        st: &mut StepStats,
+    ) -> Result<()> {
+        let n = x0.len();
+        let start = StepStart {
+            x0,
+            mass: self.cloth.masses(),
+            pinned: self.cloth.pinned(),
+            h: self.opts.dt,
+        };
+        let mut zones = Zones::new(self.cloth.pinned());
+        let v_in = self.v.clone();
+        let mut combined: Vec<DVec3> = self.x.iter().chain(o1).copied().collect();
+        loop {
+            st.correction_rounds += 1;
+            let mut all = if self.opts.self_collision {
+                timed(&mut st.detect_time, || self.checker.detect(&self.x))?.pairs
+            } else {
+                Vec::new()
+            };
+            all.sort_unstable();
+            let pairs: Vec<[u32; 2]> = all
+                .iter()
+                .copied()
+                .filter(|p| self.tolerated.binary_search(p).is_err())
+                .collect();
+            let mut hits = Vec::new();
+            if let Some((obs, bvh)) = self.obstacles.as_mut() {
+                combined[..n].copy_from_slice(&self.x);
+                let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
+                hits = timed(&mut st.obstacle_time, || c.intersections(&combined));
+            }
+            let mesh = self.cloth.mesh();
+            // A cloth vertex meeting an obstacle follows the obstacle triangle's mean motion.
+            let motion = |t: u32| {
+                let tri = obstacle_triangle(self.obstacles.as_ref(), t);
+                tri.iter()
+                    .map(|&i| o1[i as usize] - o0[i as usize])
+                    .sum::<DVec3>()
+                    / 3.0
+            };
+            let mut changed = zones.bind(mesh, hits.iter().map(|h| h[0]), |i| {
+                hits.iter()
+                    .find(|h| mesh.triangles()[h[0] as usize].contains(&(i as u32)))
+                    .map_or(DVec3::ZERO, |h| motion(h[1]))
+            });
+            changed |= !pairs.is_empty() && zones.absorb(mesh, &pairs);
+            if !changed || st.correction_rounds >= CORRECTION_ROUNDS {
+                (st.intersections, st.obstacle_intersections) =
+                    (all.len() + hits.len(), hits.len());
+                (st.reverted, st.zones) = (zones.members(), zones.count());
+                self.tolerated = all;
+                return Ok(());
+            }
+            zones.move_rigidly(&start, &v_in, &mut self.x, &mut self.v);
+        }
     }
+}
 
-    /// The correction stage; leaves the method's detection at the final positions pending.
-    fn correct(&mut self, x0: &[DVec3], st: &mut StepStats) -> Result<()> {
-        let t0 = Instant::now();
-        let checker: &mut dyn Detector = match self.guard.as_mut() {
-            Some(g) => g.as_mut(),
-            None => self.detector.as_mut(),
-        };
-        let start = StepStart { x0, mass: self.cloth.masses(), pinned: self.cloth.pinned(), h: self.opts.dt };
-        let c = response::correct(checker, &start, &mut self.x, &mut self.v)?;
-        st.response_time += t0.elapsed().as_secs_f64() - c.detect_time;
-        st.detect_time += c.detect_time;
-        (st.reverted, st.zones) = (c.zone_vertices, c.zones);
-        (st.correction_rounds, st.intersections) = (c.rounds, c.remaining);
-        let det = if self.guard.is_some() {
-            self.timed_detect(st)?
-        } else {
-            c.detection
-        };
-        st.detection = det.stats.clone();
-        self.pending = Some(det);
-        Ok(())
-    }
+/// Corners of triangle `t` of the merged obstacle mesh.
+fn obstacle_triangle(obstacles: Option<&(Obstacles, Bvh)>, t: u32) -> [u32; 3] {
+    obstacles.map_or([0; 3], |(o, _)| o.mesh().triangles()[t as usize])
 }

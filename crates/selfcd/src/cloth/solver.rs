@@ -72,7 +72,7 @@ impl Filter {
             m -= *e * m.dot(*e);
         }
         let len = m.length();
-        if !(len > MIN_INDEPENDENCE) {
+        if len.is_nan() || len <= MIN_INDEPENDENCE {
             return false;
         }
         // z' = z + e (target - z.n) / |m| keeps z.e_k and makes z'.n = target.
@@ -103,6 +103,12 @@ impl Filter {
     #[inline]
     pub fn prescribed(&self, i: usize) -> DVec3 {
         self.z[i]
+    }
+
+    /// Number of vertices the filter covers.
+    #[allow(clippy::len_without_is_empty)]
+    pub fn len(&self) -> usize {
+        self.rows.len()
     }
 
     /// Number of vertices with at least one constrained direction (pins included).
@@ -330,7 +336,7 @@ impl Pcg {
                 }
                 part
             });
-            if !(cq > 0.0) {
+            if cq.is_nan() || cq <= 0.0 {
                 break;
             }
             let alpha = delta / cq;

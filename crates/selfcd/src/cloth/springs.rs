@@ -181,7 +181,7 @@ pub struct SpringEval {
 #[inline]
 pub fn evaluate(d: DVec3, w: DVec3, rest: f64, k: f64, kd: f64) -> SpringEval {
     let l = d.length();
-    if !(l > 1e-12 * rest) {
+    if l.is_nan() || l <= 1e-12 * rest {
         return SpringEval {
             force: DVec3::ZERO,
             kx: DMat3::from_diagonal(DVec3::splat(k)),

@@ -1,6 +1,6 @@
 //! The exact reference: every pair of triangles, exact test. O(n^2).
 
-use super::narrow::{collect_proximity, Intersect, Proximity};
+use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
 use super::{Detection, Detector, Method};
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::Result;
@@ -16,12 +16,17 @@ use std::time::Instant;
 pub struct BruteDetector {
     mesh: Arc<Mesh>,
     thickness: f64,
+    max_contacts: usize,
 }
 
 impl BruteDetector {
     /// A brute-force detector for `mesh`.
     pub fn new(mesh: Arc<Mesh>, thickness: f64) -> Self {
-        BruteDetector { mesh, thickness }
+        BruteDetector {
+            mesh,
+            thickness,
+            max_contacts: DEFAULT_MAX_CONTACTS,
+        }
     }
 }
 
@@ -51,10 +56,7 @@ fn all_pairs<V: LeafVisitor>(
                     }
                 }
                 tests += 1;
-                let (a, b) = (&boxes[i], &boxes[j]);
-                let apart =
-                    (a.min - b.max).max_element() > gap || (b.min - a.max).max_element() > gap;
-                if !apart {
+                if boxes[i].within(&boxes[j], gap) {
                     visitor.visit(i as u32, j as u32, adj, &mut out);
                 }
             }
@@ -79,6 +81,10 @@ impl Detector for BruteDetector {
         &self.mesh
     }
 
+    fn set_max_contacts(&mut self, max: usize) {
+        self.max_contacts = max;
+    }
+
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
         let mesh = &*self.mesh;
         mesh.check_positions(positions)?;
@@ -90,12 +96,9 @@ impl Detector for BruteDetector {
             ..Default::default()
         };
         if self.thickness > 0.0 {
-            let near = Proximity {
-                mesh,
-                positions,
-                thickness: self.thickness,
-            };
+            let near = Proximity::new(mesh, positions, self.thickness, self.max_contacts);
             let (items, tested, _) = all_pairs(mesh, positions, self.thickness, &near);
+            near.check_output()?;
             det.proximity = collect_proximity(items);
             det.stats.proximity_tests = tested;
         }

@@ -50,6 +50,21 @@ pub fn compare_methods(
     opts: &DetectorOptions,
     mut progress: impl FnMut(usize),
 ) -> Result<Vec<MethodRun>> {
+    compare_methods_until(mesh, frames, methods, opts, |done| {
+        progress(done);
+        Ok(())
+    })
+}
+
+/// [`compare_methods`] whose `progress` can stop the run: its first error
+/// (e.g. [`crate::Error::Interrupted`]) is returned at once.
+pub fn compare_methods_until(
+    mesh: &Arc<Mesh>,
+    frames: &[Vec<DVec3>],
+    methods: &[Method],
+    opts: &DetectorOptions,
+    mut progress: impl FnMut(usize) -> Result<()>,
+) -> Result<Vec<MethodRun>> {
     let reference = reference_pairs(mesh, frames)?;
     let mut done = 0;
     let mut runs = Vec::with_capacity(methods.len());
@@ -65,7 +80,7 @@ pub fn compare_methods(
                 spurious,
             });
             done += 1;
-            progress(done);
+            progress(done)?;
         }
         runs.push(MethodRun {
             method,

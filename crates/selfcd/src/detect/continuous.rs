@@ -38,13 +38,23 @@ pub struct Impacts {
 impl Impacts {
     /// The earliest time of impact, if any pair may meet during the step.
     pub fn earliest(&self) -> Option<f64> {
-        self.vertex_triangle.iter().chain(&self.edge_edge).map(|i| i.toi).min_by(f64::total_cmp)
+        self.vertex_triangle
+            .iter()
+            .chain(&self.edge_edge)
+            .map(|i| i.toi)
+            .min_by(f64::total_cmp)
     }
 }
 
 /// Time of impact of one element pair moving from `x0` to `x1`, or `None` for
 /// incident pairs and pairs that stay apart.
-pub fn element_toi(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], pair: ElementPair, xi: f64) -> Option<f64> {
+pub fn element_toi(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    pair: ElementPair,
+    xi: f64,
+) -> Option<f64> {
     let (kind, ids) = match pair {
         ElementPair::VertexTriangle(v, t) => {
             let tri = mesh.triangles()[t as usize];
@@ -107,11 +117,22 @@ impl BvhDetector {
         mesh.check_positions(x0)?;
         mesh.check_positions(x1)?;
         if !(separation >= 0.0 && separation.is_finite()) {
-            return Err(Error::InvalidParameter(format!("separation must be finite and >= 0, got {separation}")));
+            return Err(Error::InvalidParameter(format!(
+                "separation must be finite and >= 0, got {separation}"
+            )));
         }
         self.refit_swept(x0, x1);
-        let opts = TraverseOptions { cones: false, contour: false, gap: separation };
-        let visitor = Continuous { mesh: &mesh, x0, x1, xi: separation };
+        let opts = TraverseOptions {
+            cones: false,
+            contour: false,
+            gap: separation,
+        };
+        let visitor = Continuous {
+            mesh: &mesh,
+            x0,
+            x1,
+            xi: separation,
+        };
         let (items, _) = self_traverse(self.bvh(), &mesh, x1, opts, &visitor);
         let mut out = Impacts::default();
         for i in items {

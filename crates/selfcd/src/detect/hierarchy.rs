@@ -1,6 +1,6 @@
 //! BVH detectors: `bvh`, `bvh-cones` and `bvh-cones-contour`.
 
-use super::narrow::{collect_proximity, Intersect, Proximity};
+use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
 use super::{Detection, Detector, Method};
 use crate::bvh::traverse::{self_traverse, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
@@ -17,6 +17,7 @@ pub struct BvhDetector {
     bvh: Bvh,
     method: Method,
     thickness: f64,
+    max_contacts: usize,
 }
 
 impl BvhDetector {
@@ -28,6 +29,7 @@ impl BvhDetector {
             bvh,
             method,
             thickness,
+            max_contacts: DEFAULT_MAX_CONTACTS,
         }
     }
 
@@ -41,17 +43,16 @@ impl BvhDetector {
         self.bvh.refit_swept(&self.mesh, x0, x1);
     }
 
-    /// Refits boxes and cones to `positions` (already checked); returns seconds spent.
-    pub fn refit(&mut self, positions: &[DVec3]) -> f64 {
-        let t0 = Instant::now();
+    /// Refits boxes and cones to `positions` (already checked).
+    pub fn refit(&mut self, positions: &[DVec3]) {
         self.bvh.refit(&self.mesh, positions);
-        t0.elapsed().as_secs_f64()
     }
 
     /// Traverses the refitted hierarchy: intersections, and proximity when
     /// thickness > 0 (a second, boxes-only traversal: cones say nothing about
     /// distance). Fills every field but the refit and sensor times.
-    pub fn traverse(&self, positions: &[DVec3]) -> Detection {
+    /// Errors: more proximity contacts than `max_contacts` ([`crate::Error::TooManyContacts`]).
+    pub fn traverse(&self, positions: &[DVec3]) -> Result<Detection> {
         let t0 = Instant::now();
         let mesh = &*self.mesh;
         let opts = TraverseOptions {
@@ -73,17 +74,14 @@ impl BvhDetector {
         };
         let mut proximity = Counters::default();
         if self.thickness > 0.0 {
-            let near = Proximity {
-                mesh,
-                positions,
-                thickness: self.thickness,
-            };
+            let near = Proximity::new(mesh, positions, self.thickness, self.max_contacts);
             let opts = TraverseOptions {
                 cones: false,
                 contour: false,
                 gap: self.thickness,
             };
             let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
+            near.check_output()?;
             det.proximity = collect_proximity(items);
             proximity = c;
         }
@@ -93,7 +91,12 @@ impl BvhDetector {
         s.proximity_tests = proximity.primitive_tests;
         s.traverse_time = t0.elapsed().as_secs_f64();
         det.count_contacts();
-        det
+        Ok(det)
+    }
+
+    /// Sets the limit on proximity contacts (default [`DEFAULT_MAX_CONTACTS`]).
+    pub fn set_max_contacts(&mut self, max: usize) {
+        self.max_contacts = max;
     }
 }
 
@@ -106,11 +109,17 @@ impl Detector for BvhDetector {
         &self.mesh
     }
 
+    fn set_max_contacts(&mut self, max: usize) {
+        BvhDetector::set_max_contacts(self, max);
+    }
+
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.mesh.check_positions(positions)?;
-        let refit = self.refit(positions);
-        let mut det = self.traverse(positions);
-        det.stats.refit_time = refit;
+        let t0 = Instant::now();
+        self.refit(positions);
+        let refit_time = t0.elapsed().as_secs_f64();
+        let mut det = self.traverse(positions)?;
+        det.stats.refit_time = refit_time;
         Ok(det)
     }
 }

@@ -14,8 +14,10 @@
 pub mod brute;
 pub mod compare;
 pub mod continuous;
+pub mod first;
 pub mod hierarchy;
 pub mod narrow;
+pub mod obstacle;
 pub mod sensor_gated;
 
 use crate::error::{Error, Result};
@@ -63,7 +65,8 @@ impl Method {
         }
     }
 
-    /// True when the method can miss contacts by design.
+    /// True when the method never misses a contact (false for the methods
+    /// that can miss contacts by design: `bvh-cones`, `sensor-gated`).
     pub fn is_conservative(self) -> bool {
         !matches!(self, Method::BvhCones | Method::SensorGated)
     }
@@ -142,6 +145,10 @@ pub trait Detector: Send {
     fn mesh(&self) -> &Arc<Mesh>;
     /// Finds self-intersections (and proximity contacts) at `positions`.
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection>;
+    /// Sets the most proximity contacts one call may collect (default
+    /// [`narrow::DEFAULT_MAX_CONTACTS`]); past it `detect` fails with
+    /// [`Error::TooManyContacts`] instead of exhausting memory.
+    fn set_max_contacts(&mut self, max: usize);
     /// Current particle positions, for drawing (empty for methods without a sensor).
     fn particles(&self) -> Vec<DVec3> {
         Vec::new()

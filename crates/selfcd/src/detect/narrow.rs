@@ -1,14 +1,18 @@
 //! Narrow phase: what is tested on each candidate triangle pair.
 //!
-//! - [`Intersect`]: exact closed triangle-triangle test, non-adjacent pairs only.
+//! - [`Intersect`]: exact closed triangle-triangle test behind a floating-point
+//!   filter, any finite scale, non-adjacent pairs only.
 //! - [`Proximity`]: vertex-triangle and edge-edge pairs closer than a thickness
 //!   `d`, skipping elements that share a vertex.
 
 use crate::bvh::traverse::LeafVisitor;
+use crate::error::{Error, Result};
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
-use crate::geom::tri_tri::triangles_intersect;
+use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
+use crate::stats::Counters;
 use glam::DVec3;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Exact intersection test of two triangles of one mesh.
 pub struct Intersect<'a> {
@@ -23,11 +27,18 @@ impl LeafVisitor for Intersect<'_> {
     const SKIP_ADJACENT: bool = true;
 
     #[inline]
-    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<[u32; 2]>) {
+    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<[u32; 2]>) {
+        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
+    }
+
+    #[inline]
+    fn visit_counted(&self, a: u32, b: u32, _adj: bool, out: &mut Vec<[u32; 2]>, c: &mut Counters) {
         let ta = self.mesh.corners(self.positions, a as usize);
         let tb = self.mesh.corners(self.positions, b as usize);
-        if triangles_intersect(&ta, &tb) {
-            out.push([a, b]);
+        match triangles_intersect_filtered(&ta, &tb) {
+            Decision::FilterApart => c.filter_decisions += 1,
+            d if d.intersect() => out.push([a, b]),
+            _ => {}
         }
     }
 }
@@ -74,6 +85,11 @@ pub enum Near {
     Ee(EdgeEdge),
 }
 
+/// Default limit on the proximity contacts of one query (about 64 bytes each):
+/// a thickness larger than the mesh makes the output grow as vertices x
+/// triangles, and the query must fail clearly before memory runs out.
+pub const DEFAULT_MAX_CONTACTS: usize = 20_000_000;
+
 /// Proximity test with thickness `d` between two triangles of one mesh.
 pub struct Proximity<'a> {
     /// The mesh (triangles, edges).
@@ -82,9 +98,40 @@ pub struct Proximity<'a> {
     pub positions: &'a [DVec3],
     /// Thickness: report element pairs strictly closer than this.
     pub thickness: f64,
+    /// Most contacts collected; past it, visits stop and [`Proximity::check_output`] fails.
+    pub max_contacts: usize,
+    /// Contacts collected so far, over all threads.
+    pub found: AtomicUsize,
 }
 
-impl Proximity<'_> {
+impl<'a> Proximity<'a> {
+    /// The test with thickness `thickness`, collecting at most `max_contacts` contacts.
+    pub fn new(
+        mesh: &'a Mesh,
+        positions: &'a [DVec3],
+        thickness: f64,
+        max_contacts: usize,
+    ) -> Self {
+        Proximity {
+            mesh,
+            positions,
+            thickness,
+            max_contacts,
+            found: AtomicUsize::new(0),
+        }
+    }
+
+    /// Err([`Error::TooManyContacts`]) when the query reached its limit (its output is then incomplete).
+    pub fn check_output(&self) -> Result<()> {
+        if self.found.load(Ordering::Relaxed) > self.max_contacts {
+            return Err(Error::TooManyContacts {
+                limit: self.max_contacts,
+                thickness: self.thickness,
+            });
+        }
+        Ok(())
+    }
+
     fn vertex_triangle(&self, v: u32, t: u32, out: &mut Vec<Near>) {
         let tri = self.mesh.triangles()[t as usize];
         if tri.contains(&v) {
@@ -127,10 +174,17 @@ impl LeafVisitor for Proximity<'_> {
     const SKIP_ADJACENT: bool = false;
 
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
+        if self.found.load(Ordering::Relaxed) > self.max_contacts {
+            return; // the output guard: the query fails in check_output
+        }
+        let before = out.len();
         for_each_owned_pair(self.mesh, a, b, |pair| match pair {
             ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
             ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
         });
+        if out.len() > before {
+            self.found.fetch_add(out.len() - before, Ordering::Relaxed);
+        }
     }
 }
 
@@ -162,8 +216,14 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
             }
         }
     }
-    for &ea in topo.tri_edges[a as usize].iter().filter(|&&e| owns_edge(a, e)) {
-        for &eb in topo.tri_edges[b as usize].iter().filter(|&&e| owns_edge(b, e)) {
+    for &ea in topo.tri_edges[a as usize]
+        .iter()
+        .filter(|&&e| owns_edge(a, e))
+    {
+        for &eb in topo.tri_edges[b as usize]
+            .iter()
+            .filter(|&&e| owns_edge(b, e))
+        {
             f(ElementPair::EdgeEdge(ea, eb));
         }
     }

@@ -73,8 +73,13 @@ impl Detector for SensorGatedDetector {
 
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.bvh.mesh().check_positions(positions)?;
+        let timed_refit = |bvh: &mut BvhDetector| {
+            let t0 = Instant::now();
+            bvh.refit(positions);
+            t0.elapsed().as_secs_f64()
+        };
         let mut refit = if self.refit_every_frame {
-            self.bvh.refit(positions)
+            timed_refit(&mut self.bvh)
         } else {
             0.0
         };
@@ -84,15 +89,19 @@ impl Detector for SensorGatedDetector {
         self.particles = self.sensor.positions(positions);
         let mut det = if relax.triggered {
             if !self.refit_every_frame {
-                refit = self.bvh.refit(positions);
+                refit = timed_refit(&mut self.bvh);
             }
-            self.bvh.traverse(positions)
+            self.bvh.traverse(positions)?
         } else {
             Detection::default()
         };
         det.stats.refit_time = refit;
         write_sensor(&mut det.stats, &relax, sensor_time);
         Ok(det)
+    }
+
+    fn set_max_contacts(&mut self, max: usize) {
+        self.bvh.set_max_contacts(max);
     }
 
     fn particles(&self) -> Vec<DVec3> {

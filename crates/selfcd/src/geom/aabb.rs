@@ -42,6 +42,13 @@ impl Aabb {
         self.min.cmple(o.max).all() && o.min.cmple(self.max).all()
     }
 
+    /// True when the gap between the boxes is at most `gap` along every axis
+    /// (`gap` = 0: the closed boxes share a point, as [`overlaps`](Self::overlaps)).
+    #[inline]
+    pub fn within(&self, o: &Aabb, gap: f64) -> bool {
+        (self.min - o.max).max_element() <= gap && (o.min - self.max).max_element() <= gap
+    }
+
     /// The box grown by `r` on every side.
     #[inline]
     pub fn inflate(&self, r: f64) -> Aabb {
@@ -79,5 +86,7 @@ mod tests {
         assert!(a.inflate(0.25).overlaps(&c.inflate(0.25)));
         assert_eq!(a.union(&c).surface_area(), 2.0 * (2.0 + 1.0 + 2.0));
         assert!(!Aabb::EMPTY.overlaps(&a));
+        assert!(a.within(&b, 0.0) && !a.within(&c, 0.0) && a.within(&c, 0.5));
+        assert!(!a.within(&c, 0.4999) && !Aabb::EMPTY.within(&a, 1.0));
     }
 }

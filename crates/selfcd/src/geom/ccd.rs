@@ -120,8 +120,18 @@ mod tests {
     fn crossing_edges_and_common_motion() {
         // Two edges crossing at t = 0.5 while both fly along +x (common motion does not matter).
         let shift = v(10.0, 0.0, 0.0);
-        let x0 = [v(-1., 0., 1.), v(1., 0., 1.), v(0., -1., -1.), v(0., 1., -1.)];
-        let x1 = [v(-1., 0., -1.) + shift, v(1., 0., -1.) + shift, v(0., -1., 1.) + shift, v(0., 1., 1.) + shift];
+        let x0 = [
+            v(-1., 0., 1.),
+            v(1., 0., 1.),
+            v(0., -1., -1.),
+            v(0., 1., -1.),
+        ];
+        let x1 = [
+            v(-1., 0., -1.) + shift,
+            v(1., 0., -1.) + shift,
+            v(0., -1., 1.) + shift,
+            v(0., 1., 1.) + shift,
+        ];
         let t = time_of_impact(Pair::EdgeEdge, x0, x1, 0.0).unwrap();
         assert!(t <= 0.5 && t > 0.4999, "t = {t}");
         // Starting within the separation: time 0.
@@ -135,9 +145,14 @@ mod tests {
         let mut rng = SplitMix::new(17);
         let mut hits = 0;
         for k in 0..400 {
-            let pair = if k % 2 == 0 { Pair::PointTriangle } else { Pair::EdgeEdge };
+            let pair = if k % 2 == 0 {
+                Pair::PointTriangle
+            } else {
+                Pair::EdgeEdge
+            };
             let x0: [DVec3; 4] = std::array::from_fn(|_| rng.direction() * rng.unit());
-            let x1: [DVec3; 4] = std::array::from_fn(|i| x0[i] + rng.direction() * 1.5 * rng.unit());
+            let x1: [DVec3; 4] =
+                std::array::from_fn(|i| x0[i] + rng.direction() * 1.5 * rng.unit());
             let xi = 0.05;
             // First sampled time within xi (the true time is at most this).
             let first = (0..=2000).map(|i| i as f64 / 2000.0).find(|&t| {
@@ -147,8 +162,12 @@ mod tests {
             let toi = time_of_impact(pair, x0, x1, xi);
             if let Some(ts) = first {
                 hits += 1;
-                let t = toi.unwrap_or_else(|| panic!("missed a contact at t = {ts} ({pair:?}, case {k})"));
-                assert!(t <= ts + 1e-12, "reported {t} after a sampled contact at {ts}");
+                let t = toi
+                    .unwrap_or_else(|| panic!("missed a contact at t = {ts} ({pair:?}, case {k})"));
+                assert!(
+                    t <= ts + 1e-12,
+                    "reported {t} after a sampled contact at {ts}"
+                );
             }
             if let Some(t) = toi {
                 // What it reports is a real approach: by t the pair is not yet within xi.
@@ -156,6 +175,9 @@ mod tests {
                 assert!(t == 0.0 || distance2(pair, &x) >= xi * xi * 0.999_999);
             }
         }
-        assert!(hits > 50, "too few colliding cases ({hits}) to test anything");
+        assert!(
+            hits > 50,
+            "too few colliding cases ({hits}) to test anything"
+        );
     }
 }

@@ -47,7 +47,10 @@ impl Angle {
     /// Twice an angle in [0, PI/2].
     #[inline]
     fn double(self) -> Angle {
-        Angle { c: self.c * self.c - self.s * self.s, s: 2.0 * self.c * self.s }
+        Angle {
+            c: self.c * self.c - self.s * self.s,
+            s: 2.0 * self.c * self.s,
+        }
     }
 
     /// Half of an angle in [0, PI]; accurate near 0 and near PI.
@@ -115,7 +118,10 @@ pub struct NormalCone {
 
 impl NormalCone {
     /// The cone holding every direction.
-    pub const FULL: NormalCone = NormalCone { axis: DVec3::Z, quarter: Angle { c: 0.0, s: 1.0 } };
+    pub const FULL: NormalCone = NormalCone {
+        axis: DVec3::Z,
+        quarter: Angle { c: 0.0, s: 1.0 },
+    };
 
     /// The cone of triangle (a, b, c)'s normal, widened by the rounding error of
     /// the cross product so that it holds the exact normal. A degenerate
@@ -133,7 +139,10 @@ impl NormalCone {
         // most asin(x) <= 1.06 x for x = 8 eps |e1||e2| / |n| <= 1/8.
         let inv = 1.0 / len2.sqrt();
         let err = 1.06 * 8.0 * f64::EPSILON * scale2.sqrt() * inv;
-        NormalCone { axis: n * inv, quarter: Angle::ZERO.widen(0.5 * err) }
+        NormalCone {
+            axis: n * inv,
+            quarter: Angle::ZERO.widen(0.5 * err),
+        }
     }
 
     /// A cone from an axis (normalised here) and a half-angle in radians.
@@ -142,7 +151,13 @@ impl NormalCone {
             return NormalCone::FULL;
         }
         let q = 0.5 * half_angle.max(0.0);
-        NormalCone { axis: axis.normalize(), quarter: Angle { c: q.cos(), s: q.sin() } }
+        NormalCone {
+            axis: axis.normalize(),
+            quarter: Angle {
+                c: q.cos(),
+                s: q.sin(),
+            },
+        }
     }
 
     /// Half-angle in radians (for reports; the engine works with cosines and sines).
@@ -193,7 +208,10 @@ impl NormalCone {
         let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
         // Unit up to rounding: one Newton step for 1/|axis| keeps it so without a square root.
         let axis = axis * (1.5 - 0.5 * axis.length_squared());
-        NormalCone { axis, quarter: h.half() }
+        NormalCone {
+            axis,
+            quarter: h.half(),
+        }
     }
 }
 
@@ -251,8 +269,14 @@ mod tests {
     #[test]
     fn nearly_equal_axes_merge_to_a_tight_cone() {
         // Axes equal up to rounding (not exactly unit): must not blow up to the full cone.
-        let a = NormalCone { axis: DVec3::new(0.0, 0.0, 0.9999999999999999), quarter: Angle { c: 1.0, s: 1.9e-15 } };
-        let b = NormalCone { axis: DVec3::new(0.0, -0.0, 0.9999999999999999), quarter: Angle { c: 1.0, s: 2.7e-15 } };
+        let a = NormalCone {
+            axis: DVec3::new(0.0, 0.0, 0.9999999999999999),
+            quarter: Angle { c: 1.0, s: 1.9e-15 },
+        };
+        let b = NormalCone {
+            axis: DVec3::new(0.0, -0.0, 0.9999999999999999),
+            quarter: Angle { c: 1.0, s: 2.7e-15 },
+        };
         let m = a.merge(&b);
         assert!(m.is_positive() && m.half_angle() < 1e-12, "{m:?}");
     }

@@ -39,7 +39,8 @@ pub fn point_triangle_closest(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3
         return [0.0, 1.0 - w, w];
     }
     let denom = va + vb + vc;
-    if !(denom.abs() > 0.0) {
+    // Zero or NaN (from an overflowed degenerate triangle).
+    if denom.abs().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         // Degenerate triangle: closest point on its longest edge is found above or here.
         return closest_on_edges(p, a, b, c);
     }

@@ -8,11 +8,48 @@
 //! rounding. Degenerate (collapsed) triangles are handled as their edges.
 
 use super::predicates::{
-    dominant_axis, is_degenerate, orient3d, point_in_triangle_2d, project, segments_intersect_2d,
+    certainly_one_side, dominant_axis, is_degenerate, orient3d, point_in_triangle_2d, project,
+    scale_exactly, segments_intersect_2d,
 };
 use glam::DVec3;
 
-/// True when closed triangles `a` and `b` share at least one point.
+/// How a triangle pair was decided.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decision {
+    /// The floating-point filter proved the triangles apart.
+    FilterApart,
+    /// The exact test ran; its answer.
+    Exact(bool),
+}
+
+impl Decision {
+    /// True when the triangles share a point.
+    #[inline]
+    pub fn intersect(self) -> bool {
+        self == Decision::Exact(true)
+    }
+}
+
+/// The exact test behind a floating-point filter, for any finite scale:
+/// first the error-bounded plane-side test ([`certainly_one_side`]) both ways;
+/// when it cannot decide, both triangles are scaled by one power of two
+/// ([`scale_exactly`]) and given [`triangles_intersect`].
+#[inline]
+pub fn triangles_intersect_filtered(a: &[DVec3; 3], b: &[DVec3; 3]) -> Decision {
+    if certainly_one_side(a, b) || certainly_one_side(b, a) {
+        return Decision::FilterApart;
+    }
+    let mut p = [a[0], a[1], a[2], b[0], b[1], b[2]];
+    scale_exactly(&mut p);
+    Decision::Exact(triangles_intersect(
+        &[p[0], p[1], p[2]],
+        &[p[3], p[4], p[5]],
+    ))
+}
+
+/// True when closed triangles `a` and `b` share at least one point (exact
+/// while no orientation product overflows or underflows: see
+/// [`triangles_intersect_filtered`] for inputs of any scale).
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     // Plane-side rejection first: it settles most pairs, and it is valid for
     // degenerate triangles too (their orientations are all zero, never one-sided).
@@ -26,11 +63,14 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     }
     let da = is_degenerate(a[0], a[1], a[2]);
     let db = is_degenerate(b[0], b[1], b[2]);
-    let any_edge = |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
+    let any_edge =
+        |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
     match (da, db) {
-        (true, true) => edges(a)
-            .iter()
-            .any(|ea| edges(b).iter().any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))),
+        (true, true) => edges(a).iter().any(|ea| {
+            edges(b)
+                .iter()
+                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
+        }),
         (true, false) => any_edge(a, b),
         (false, true) => any_edge(b, a),
         (false, false) if sb == [0; 3] => {
@@ -100,6 +140,9 @@ pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool
         } else {
             q2 - q1
         };
+        if d == DVec3::ZERO {
+            return p1 == q1; // two points (any projection could merge them)
+        }
         let d = d.abs();
         if d.x <= d.y && d.x <= d.z {
             0

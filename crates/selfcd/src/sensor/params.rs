@@ -24,6 +24,12 @@
 use crate::detect::Method;
 use crate::error::{Error, Result};
 
+/// Most particles: each update costs count^2 force terms (the paper uses 4).
+pub const MAX_COUNT: usize = 1024;
+
+/// Most particle updates per frame (`n_max`): bounds the time of one detection.
+pub const MAX_UPDATES: u32 = 10_000;
+
 /// Parameters of the particle sensor and the sensor-gated detector.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorParams {
@@ -107,8 +113,23 @@ impl SensorParams {
                 return bad(format!("sensor {name} must be finite and > 0, got {v}"));
             }
         }
-        if self.n_max == 0 {
-            return bad("sensor n_max must be at least 1".into());
+        if self.count > MAX_COUNT {
+            return bad(format!(
+                "sensor count must be at most {MAX_COUNT}, got {}",
+                self.count
+            ));
+        }
+        if !(1..=MAX_UPDATES).contains(&self.n_max) {
+            return bad(format!(
+                "sensor n_max must be in 1..={MAX_UPDATES}, got {}",
+                self.n_max
+            ));
+        }
+        if self.n_min > self.n_max {
+            return bad(format!(
+                "sensor n_min ({}) must not exceed n_max ({})",
+                self.n_min, self.n_max
+            ));
         }
         if !matches!(
             self.inner,

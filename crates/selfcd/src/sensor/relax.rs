@@ -17,7 +17,7 @@ use super::particle::SurfacePoint;
 use super::place::{place, share};
 use super::units::{normalised, to_frame};
 use super::walk;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use glam::DVec3;
 use std::sync::Arc;
@@ -80,7 +80,7 @@ impl Sensor {
     /// A sensor on `mesh` with `params.count` particles shared among its
     /// components and spread over each ([`super::place`]). Any mesh is accepted:
     /// flat or curved rest shape, any number of components, one triangle.
-    /// Errors: invalid parameters.
+    /// Errors: invalid parameters, or a mean edge length of zero.
     pub fn new(mesh: Arc<Mesh>, params: SensorParams) -> Result<Sensor> {
         params.validate()?;
         let (norm, origin) = normalised(&mesh);
@@ -117,6 +117,12 @@ impl Sensor {
         params.validate()?;
         points.iter().try_for_each(|p| p.check(&mesh))?;
         let unit = mesh.mean_edge_length();
+        if !(unit > 0.0) {
+            // A mesh of zero-area triangles all at one point: no length unit.
+            return Err(Error::InvalidParameter(
+                "the particle sensor needs a mesh with a positive mean edge length".into(),
+            ));
+        }
         Ok(Sensor {
             mesh,
             norm,
