@@ -125,12 +125,14 @@ def test_parameters_are_checked(call, error, words) -> None:
 
 @pytest.mark.parametrize("method", selfcd.methods())
 def test_proximity_output_is_guarded(method: str) -> None:
-    # A thickness larger than the mesh: every vertex is near every face.
+    # A thickness larger than the mesh: every vertex is near every face. The
+    # grid is folded onto itself so that the particle gate triggers too.
+    folded = selfcd.scenes.deform(V, "fold", angle=np.pi)
     det = selfcd.Detector(M, method, thickness=10.0, max_contacts=100)
     with pytest.raises(ValueError, match="stopped at 100 contacts: thickness 10 is too large"):
-        det.detect()
+        det.detect(folded)
     everything = selfcd.Detector(M, method, thickness=10.0)
-    everything.detect()
+    everything.detect(folded)
     n = len(everything.last_proximity["vertex_triangle"]) + len(everything.last_proximity["edge_edge"])
     assert n > 100
     exact = selfcd.Detector(M, method, thickness=10.0, max_contacts=n)

@@ -5,29 +5,9 @@ use selfcd::{Detector, Mesh, Method};
 use std::sync::Arc;
 use std::time::Instant;
 
-fn read_obj(path: &str) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let text = std::fs::read_to_string(path).expect("readable OBJ");
-    let (mut v, mut f) = (Vec::new(), Vec::new());
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f64> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                v.push([c[0], c[1], c[2]]);
-            }
-            Some("f") => {
-                let c: Vec<u32> = it
-                    .map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
-                    .collect();
-                for k in 1..c.len() - 1 {
-                    f.push([c[0], c[k], c[k + 1]]);
-                }
-            }
-            _ => {}
-        }
-    }
-    (v, f)
-}
+#[path = "common/obj.rs"]
+mod obj;
+use obj::read_obj;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();

@@ -93,6 +93,12 @@ impl SensorParams {
                 self.count
             ));
         }
+        if self.count > MAX_COUNT {
+            return bad(format!(
+                "sensor count must be at most {MAX_COUNT}, got {}",
+                self.count
+            ));
+        }
         if self.max_count < self.count {
             return bad(format!(
                 "sensor max_count ({}) must be at least count ({})",
@@ -112,12 +118,6 @@ impl SensorParams {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("sensor {name} must be finite and > 0, got {v}"));
             }
-        }
-        if self.count > MAX_COUNT {
-            return bad(format!(
-                "sensor count must be at most {MAX_COUNT}, got {}",
-                self.count
-            ));
         }
         if !(1..=MAX_UPDATES).contains(&self.n_max) {
             return bad(format!(
