@@ -513,6 +513,22 @@ fn thickness_widens_the_trigger() {
 }
 
 // ---- Any surface: curved rest shapes, several components, one triangle ----
+/// Brute force and the gate on the same frames: (exact contacts, contacts the
+/// gate missed, the gate's run).
+fn gate_against_brute(mesh: &Arc<Mesh>, frames: &[Vec<DVec3>]) -> (u64, u64, MethodRun) {
+    let mut runs = compare_methods(
+        mesh,
+        frames,
+        &[Method::Brute, Method::SensorGated],
+        &DetectorOptions::default(),
+        |_| {},
+    )
+    .unwrap();
+    let gated = runs.pop().unwrap();
+    let contacts = runs[0].frames.iter().map(|r| r.stats.contacts).sum();
+    let missed = gated.frames.iter().map(|r| r.missed).sum();
+    (contacts, missed, gated)
+}
 
 fn mesh_of((v, f): (Vec<[f64; 3]>, Vec<[u32; 3]>)) -> Arc<Mesh> {
     Arc::new(Mesh::new(v, f).unwrap())
@@ -644,16 +660,7 @@ fn several_components_carry_particles_and_are_infinitely_apart() {
                 .collect()
         })
         .collect();
-    let runs = compare_methods(
-        &mesh,
-        &frames,
-        &[Method::Brute, Method::SensorGated],
-        &DetectorOptions::default(),
-        |_| {},
-    )
-    .unwrap();
-    let contacts: u64 = runs[0].frames.iter().map(|r| r.stats.contacts).sum();
-    let missed: u64 = runs[1].frames.iter().map(|r| r.missed).sum();
+    let (contacts, missed, _) = gate_against_brute(&mesh, &frames);
     eprintln!("two sheets: {contacts} contacts, {missed} missed");
     assert!(contacts > 0);
     assert_eq!(missed, 0);
@@ -799,17 +806,8 @@ fn curved_meshes_fold_roll_twist_bend_without_misses() {
             let frames: Vec<Vec<DVec3>> = (0..40)
                 .map(|f| shape(f as f64 / 39.0, mesh.rest()))
                 .collect();
-            let runs = compare_methods(
-                mesh,
-                &frames,
-                &[Method::Brute, Method::SensorGated],
-                &DetectorOptions::default(),
-                |_| {},
-            )
-            .unwrap();
-            let contacts: u64 = runs[0].frames.iter().map(|r| r.stats.contacts).sum();
-            let missed: u64 = runs[1].frames.iter().map(|r| r.missed).sum();
-            let triggered = runs[1]
+            let (contacts, missed, gated) = gate_against_brute(mesh, &frames);
+            let triggered = gated
                 .frames
                 .iter()
                 .filter(|r| r.stats.triggered == Some(true))
@@ -818,7 +816,7 @@ fn curved_meshes_fold_roll_twist_bend_without_misses() {
                 "{mname} {aname}: {contacts} contacts, triggered {triggered}/40, missed {missed}"
             );
             total_missed += missed;
-            assert!(runs[1].frames.iter().all(|r| r.spurious == 0));
+            assert!(gated.frames.iter().all(|r| r.spurious == 0));
         }
     }
     assert_eq!(total_missed, 0, "contacts missed on curved meshes");
@@ -827,16 +825,7 @@ fn curved_meshes_fold_roll_twist_bend_without_misses() {
     let frames: Vec<Vec<DVec3>> = (0..40)
         .map(|f| pinch(mesh.rest(), 1.6 * f as f64 / 39.0))
         .collect();
-    let runs = compare_methods(
-        &mesh,
-        &frames,
-        &[Method::Brute, Method::SensorGated],
-        &DetectorOptions::default(),
-        |_| {},
-    )
-    .unwrap();
-    let contacts: u64 = runs[0].frames.iter().map(|r| r.stats.contacts).sum();
-    let missed: u64 = runs[1].frames.iter().map(|r| r.missed).sum();
+    let (contacts, missed, _) = gate_against_brute(&mesh, &frames);
     eprintln!("sphere squeeze: {contacts} contacts, missed {missed}");
     assert!(contacts > 0);
     assert_eq!(missed, 0);
