@@ -168,6 +168,24 @@ fn meshes() -> Vec<(String, Arc<Mesh>)> {
     out
 }
 
+/// A unit grid of `side` x `side` vertices and one crumple of it.
+fn crumpled_grid(
+    side: usize,
+    amplitude: f64,
+    wavelength: f64,
+    seed: u64,
+) -> (Arc<Mesh>, Vec<DVec3>) {
+    let (v, f) = grid(side, 1.0);
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let p = Deformation::Crumple {
+        amplitude,
+        wavelength,
+        seed,
+    }
+    .apply(mesh.rest());
+    (mesh, p)
+}
+
 #[test]
 fn all_detectors_match_brute_on_varied_deformations() {
     let mut total_missed = 0;
@@ -194,14 +212,7 @@ fn all_detectors_match_brute_on_varied_deformations() {
 
 #[test]
 fn rigid_motions_and_scales_do_not_change_the_answer() {
-    let (v, f) = grid(15, 1.0);
-    let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let base = Deformation::Crumple {
-        amplitude: 0.35,
-        wavelength: 0.4,
-        seed: 11,
-    }
-    .apply(mesh.rest());
+    let (mesh, base) = crumpled_grid(15, 0.35, 0.4, 11);
     let want = detect(&mesh, Method::Brute, &base, 0.0).pairs;
     assert!(!want.is_empty());
     let mut rng = SplitMix::new(5);
@@ -331,14 +342,7 @@ fn proximity_matches_brute() {
 #[test]
 fn same_contacts_for_any_thread_count() {
     // Large enough (5000 triangles) that the traversal runs in parallel tasks.
-    let (v, f) = grid(51, 1.0);
-    let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let p = Deformation::Crumple {
-        amplitude: 0.4,
-        wavelength: 0.3,
-        seed: 9,
-    }
-    .apply(mesh.rest());
+    let (mesh, p) = crumpled_grid(51, 0.4, 0.3, 9);
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -406,14 +410,7 @@ fn extreme_scales_give_the_same_pairs() {
     // Powers of two are exact, so every scale must give the unit answer; the
     // predicates would overflow at 2^360 and 2^1000 and underflow at 2^-900
     // without the filter's bounds and the exact path's power-of-two scaling.
-    let (v, f) = grid(13, 1.0);
-    let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let base = Deformation::Crumple {
-        amplitude: 0.35,
-        wavelength: 0.4,
-        seed: 3,
-    }
-    .apply(mesh.rest());
+    let (mesh, base) = crumpled_grid(13, 0.35, 0.4, 3);
     let want = detect(&mesh, Method::Brute, &base, 0.0).pairs;
     assert!(want.len() > 10, "the crumple should self-intersect");
     for e in [-1000, -900, -360, 360, 1000] {
