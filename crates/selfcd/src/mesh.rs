@@ -238,6 +238,58 @@ impl Mesh {
         let (ta, tb) = (&self.tris[a], &self.tris[b]);
         ta.iter().any(|v| tb.contains(v))
     }
+
+    /// Flags, per triangle, whether it touches a non-manifold edge (more than two
+    /// triangles) or a non-manifold vertex (its triangles form several fans).
+    pub fn nonmanifold_triangles(&self) -> Vec<bool> {
+        let mesh = self;
+        let topo = mesh.topology();
+        let tris = mesh.triangles();
+        let mut bad = vec![false; tris.len()];
+        for e in 0..topo.edges.len() {
+            let row = topo.edge_tris.row(e);
+            if row.len() > 2 {
+                row.iter().for_each(|&t| bad[t as usize] = true);
+            }
+        }
+        // A vertex is manifold when its triangles are connected through edges at it.
+        let mut parent: Vec<u32> = Vec::new();
+        for v in 0..mesh.n_vertices() {
+            let fan = topo.vertex_tris.row(v);
+            if fan.len() < 2 {
+                continue;
+            }
+            parent.clear();
+            parent.extend(0..fan.len() as u32);
+            fn find(p: &mut [u32], mut x: u32) -> u32 {
+                while p[x as usize] != x {
+                    p[x as usize] = p[p[x as usize] as usize];
+                    x = p[x as usize];
+                }
+                x
+            }
+            for i in 0..fan.len() {
+                for j in i + 1..fan.len() {
+                    let (ti, tj) = (fan[i] as usize, fan[j] as usize);
+                    let shares_edge_at_v = topo.tri_edges[ti].iter().any(|e| {
+                        topo.tri_edges[tj].contains(e)
+                            && topo.edges[*e as usize].contains(&(v as u32))
+                    });
+                    if shares_edge_at_v {
+                        let (ri, rj) = (find(&mut parent, i as u32), find(&mut parent, j as u32));
+                        parent[ri as usize] = rj;
+                    }
+                }
+            }
+            let roots = (0..fan.len() as u32)
+                .filter(|&i| find(&mut parent, i) == i)
+                .count();
+            if roots > 1 {
+                fan.iter().for_each(|&t| bad[t as usize] = true);
+            }
+        }
+        bad
+    }
 }
 
 fn check_finite(p: &[DVec3]) -> Result<()> {

@@ -8,7 +8,7 @@
 //! (the cone and contour tests need that). When no two remaining nodes share
 //! an edge (separate components), they are paired in spatial order.
 
-use super::contour::{self, count_common, merge_contours, pack, Patches};
+use super::patch::{self, count_common, merge_contours, pack, Patches};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
@@ -25,7 +25,7 @@ struct PatchBuilder {
 impl PatchBuilder {
     fn leaves(mesh: &Mesh) -> PatchBuilder {
         let topo = mesh.topology();
-        let bad = contour::nonmanifold_triangles(mesh);
+        let bad = mesh.nonmanifold_triangles();
         let n = mesh.n_triangles();
         let mut b = PatchBuilder {
             contour: Vec::with_capacity(2 * n),
@@ -67,7 +67,7 @@ impl PatchBuilder {
         let mut c = Vec::new();
         let info = merge_contours(&self.contour[l], &self.contour[r], &mut c);
         let shared_v = count_common(&self.boundary[l], &self.boundary[r]) as i32;
-        let mut v: Vec<u32> = c.iter().flat_map(|&e| contour::unpack(mesh, e)).collect();
+        let mut v: Vec<u32> = c.iter().flat_map(|&e| patch::unpack(mesh, e)).collect();
         v.sort_unstable();
         v.dedup();
         let euler = self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32;

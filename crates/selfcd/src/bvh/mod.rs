@@ -7,7 +7,7 @@
 //! smaller id than its parent and the root is the last node.
 
 pub mod build;
-pub mod contour;
+pub mod patch;
 pub mod refit;
 pub mod traverse;
 
@@ -29,7 +29,7 @@ pub struct Bvh {
     /// Normal cone of every node, refitted each frame.
     pub cones: Vec<NormalCone>,
     /// Contour and patch topology of every node, fixed at build time.
-    pub patches: contour::Patches,
+    pub patches: patch::Patches,
 }
 
 impl Bvh {

@@ -11,11 +11,9 @@
 //! results and counters, and the join order is fixed, so the output is the
 //! same for any number of threads.
 
-use super::contour::{
-    count_common, have_common, loops_meet_only_where_shared, merge_contours, project_contour,
-    simple_ccw_loop, star_about, Plane, Seg,
-};
+use super::patch::{count_common, have_common, merge_contours, project_contour};
 use super::Bvh;
+use crate::geom::loop2d::{loops_meet_only_where_shared, simple_ccw_loop, star_about, Plane, Seg};
 use crate::mesh::Mesh;
 use crate::stats::Counters;
 use glam::DVec3;

@@ -29,7 +29,7 @@ pub fn orient2d(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
 
 /// Twice the signed area of (a, b, c): sign exact, magnitude approximate.
 #[inline]
-fn orient2d_value(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+pub fn orient2d_value(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     let c2 = |p: [f64; 2]| Coord { x: p[0], y: p[1] };
     robust::orient2d(c2(a), c2(b), c2(c))
 }

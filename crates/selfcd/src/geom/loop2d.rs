@@ -1,130 +1,12 @@
-//! Node contours and the star contour test (Volino & Magnenat-Thalmann's
-//! condition (B), made conservative).
+//! Closed loops of segments in the plane: the 2-D geometry of the contour test
+//! (see [`crate::bvh::patch`] for the theorem it serves).
 //!
-//! A node's patch is the set of triangles under it. Its *contour* is every
-//! directed edge of the patch not shared by two of its triangles: mesh boundary
-//! edges and the edges the BVH cut. Contours are stored once, as sorted lists
-//! of packed directed edges `edge_id << 1 | reversed`, with the sorted list of
-//! the patch's boundary vertices and its Euler characteristic.
-//!
-//! **Theorem used.** Let a patch be connected with Euler characteristic 1, be
-//! an orientable manifold (every edge in at most two triangles, every vertex
-//! star one fan), have every triangle normal strictly within 90 degrees of v,
-//! and let c be a point such that, projected along v, c lies strictly left of
-//! every directed contour edge with the edges turning around c once in total.
-//! Then the patch has no two non-adjacent triangles that touch. (Each cycle of
-//! contour edges turns around c a positive whole number of times, so one turn
-//! means one simple star-shaped loop; the projection is then a local,
-//! orientation-preserving map of a disk whose boundary goes once around a
-//! simple curve, so its degree is 1 and it is one-to-one.)
-//!
-//! The loop is checked in O(contour) by the star test about the patch's box
-//! centre; when that fails, contours up to 64 edges get the exact condition
-//! (one simple counter-clockwise loop). For the union of two adjacent disks A
-//! and B (glued along edges, or pinched at one vertex) the star test runs on
-//! the union's contour; failing that, A and B are each checked as above and
-//! their loops must meet only along the edges and vertices they share, neither
-//! inside the other: the projection is then one-to-one on each and their images
-//! meet only where the patches themselves meet.
+//! Decisions are conservative: a loop is reported simple, or two loops apart,
+//! only with a margin far above the rounding of the projection; near-touching
+//! is "not simple". A `false` costs speed (no cull), never a missed contact.
 
-use crate::mesh::{Csr, Mesh};
+use crate::geom::predicates::orient2d_value;
 use glam::DVec3;
-
-/// Per-node patch topology, fixed at build time.
-#[derive(Debug, Clone, Default)]
-pub struct Patches {
-    /// Sorted packed directed contour edges of each node.
-    pub contour: Csr,
-    /// Sorted boundary vertices of each node (the vertices of its contour).
-    pub boundary: Csr,
-    /// Euler characteristic V - E + F of each node's patch.
-    pub euler: Vec<i32>,
-    /// False when the patch holds a non-manifold element or inconsistent
-    /// winding: the contour test never passes for it.
-    pub eligible: Vec<bool>,
-}
-
-/// Packs directed edge `a -> b` (edge id `e`) as `e << 1 | (a > b)`.
-#[inline]
-pub fn pack(e: u32, a: u32, b: u32) -> u32 {
-    (e << 1) | (a > b) as u32
-}
-
-/// The directed vertex pair of a packed contour edge.
-#[inline]
-pub fn unpack(mesh: &Mesh, packed: u32) -> [u32; 2] {
-    let [lo, hi] = mesh.topology().edges[(packed >> 1) as usize];
-    if packed & 1 == 0 {
-        [lo, hi]
-    } else {
-        [hi, lo]
-    }
-}
-
-/// What merging two contours found.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct MergeInfo {
-    /// Edges present in both contours (they become interior to the union).
-    pub shared_edges: u32,
-    /// A shared edge had the same direction on both sides: inconsistent winding.
-    pub conflict: bool,
-}
-
-/// Contour of the union of two disjoint patches: the symmetric difference of
-/// their sorted contours, written to `out`.
-pub fn merge_contours(a: &[u32], b: &[u32], out: &mut Vec<u32>) -> MergeInfo {
-    out.clear();
-    let mut info = MergeInfo::default();
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        let (ea, eb) = (a[i] >> 1, b[j] >> 1);
-        if ea < eb {
-            out.push(a[i]);
-            i += 1;
-        } else if eb < ea {
-            out.push(b[j]);
-            j += 1;
-        } else {
-            info.shared_edges += 1;
-            info.conflict |= a[i] == b[j];
-            i += 1;
-            j += 1;
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    info
-}
-
-/// Number of common items of two sorted lists.
-pub fn count_common(a: &[u32], b: &[u32]) -> u32 {
-    let (mut i, mut j, mut n) = (0, 0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => i += 1,
-            std::cmp::Ordering::Greater => j += 1,
-            std::cmp::Ordering::Equal => {
-                n += 1;
-                i += 1;
-                j += 1;
-            }
-        }
-    }
-    n
-}
-
-/// True when two sorted lists share an item.
-pub fn have_common(a: &[u32], b: &[u32]) -> bool {
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => i += 1,
-            std::cmp::Ordering::Greater => j += 1,
-            std::cmp::Ordering::Equal => return true,
-        }
-    }
-    false
-}
 
 /// A contour edge projected on the plane normal to a cone axis: endpoints and vertex ids.
 #[derive(Debug, Clone, Copy)]
@@ -133,29 +15,6 @@ pub struct Seg {
     pub p: [[f64; 2]; 2],
     /// Vertex ids of start and end.
     pub v: [u32; 2],
-}
-
-/// Projects directed contour edges along `axis` (relative to `origin`) into `out`.
-/// The basis (u, w, axis) is right-handed, so counter-clockwise seen from +axis
-/// stays counter-clockwise.
-pub fn project_contour(
-    mesh: &Mesh,
-    positions: &[DVec3],
-    contour: &[u32],
-    plane: &Plane,
-    out: &mut Vec<Seg>,
-) {
-    out.clear();
-    out.extend(contour.iter().map(|&e| {
-        let v = unpack(mesh, e);
-        Seg {
-            p: [
-                plane.project(positions[v[0] as usize]),
-                plane.project(positions[v[1] as usize]),
-            ],
-            v,
-        }
-    }));
 }
 
 /// The plane normal to a cone axis through an origin, with a right-handed
@@ -230,11 +89,6 @@ fn extent2(segs: &[Seg]) -> f64 {
     (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)
 }
 
-#[inline]
-fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
-    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-}
-
 /// True when two projected edges meet only where the mesh says they may: not
 /// at all, at their one shared vertex (without folding back onto each other),
 /// or everywhere when they are the same mesh edge (the glue of two patches).
@@ -248,7 +102,7 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
                 a.p[0][k].max(a.p[1][k]) < b.p[0][k].min(b.p[1][k])
                     || b.p[0][k].max(b.p[1][k]) < a.p[0][k].min(a.p[1][k])
             });
-            let side = |s: &Seg, p: [f64; 2]| orient(s.p[0], s.p[1], p);
+            let side = |s: &Seg, p: [f64; 2]| orient2d_value(s.p[0], s.p[1], p);
             let one_side = |s: &Seg, t: &Seg| {
                 let (x, y) = (side(s, t.p[0]), side(s, t.p[1]));
                 (x > eps && y > eps) || (x < -eps && y < -eps)
@@ -268,7 +122,7 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
                 b.p[0]
             };
             let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
-            orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
+            orient2d_value(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
         }
     }
 }
@@ -407,70 +261,6 @@ pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg]) -> bool {
             .is_some_and(|e| !inside(e.p[0], loop_))
     };
     outside(a, b) && outside(b, a)
-}
-
-impl Patches {
-    /// Contour of `node`.
-    #[inline]
-    pub fn contour_of(&self, node: u32) -> &[u32] {
-        self.contour.row(node as usize)
-    }
-
-    /// Boundary vertices of `node`.
-    #[inline]
-    pub fn boundary_of(&self, node: u32) -> &[u32] {
-        self.boundary.row(node as usize)
-    }
-}
-
-/// Flags, per triangle, whether it touches a non-manifold edge (more than two
-/// triangles) or a non-manifold vertex (its triangles form several fans).
-pub fn nonmanifold_triangles(mesh: &Mesh) -> Vec<bool> {
-    let topo = mesh.topology();
-    let tris = mesh.triangles();
-    let mut bad = vec![false; tris.len()];
-    for e in 0..topo.edges.len() {
-        let row = topo.edge_tris.row(e);
-        if row.len() > 2 {
-            row.iter().for_each(|&t| bad[t as usize] = true);
-        }
-    }
-    // A vertex is manifold when its triangles are connected through edges at it.
-    let mut parent: Vec<u32> = Vec::new();
-    for v in 0..mesh.n_vertices() {
-        let fan = topo.vertex_tris.row(v);
-        if fan.len() < 2 {
-            continue;
-        }
-        parent.clear();
-        parent.extend(0..fan.len() as u32);
-        fn find(p: &mut [u32], mut x: u32) -> u32 {
-            while p[x as usize] != x {
-                p[x as usize] = p[p[x as usize] as usize];
-                x = p[x as usize];
-            }
-            x
-        }
-        for i in 0..fan.len() {
-            for j in i + 1..fan.len() {
-                let (ti, tj) = (fan[i] as usize, fan[j] as usize);
-                let shares_edge_at_v = topo.tri_edges[ti].iter().any(|e| {
-                    topo.tri_edges[tj].contains(e) && topo.edges[*e as usize].contains(&(v as u32))
-                });
-                if shares_edge_at_v {
-                    let (ri, rj) = (find(&mut parent, i as u32), find(&mut parent, j as u32));
-                    parent[ri as usize] = rj;
-                }
-            }
-        }
-        let roots = (0..fan.len() as u32)
-            .filter(|&i| find(&mut parent, i) == i)
-            .count();
-        if roots > 1 {
-            fan.iter().for_each(|&t| bad[t as usize] = true);
-        }
-    }
-    bad
 }
 
 #[cfg(test)]

@@ -1,0 +1,166 @@
+//! Node patches: contours, boundary vertices and Euler characteristics, and
+//! the theorem behind the contour test (Volino & Magnenat-Thalmann's condition (B), made conservative).
+//! The 2-D loop geometry of the test lives in [`crate::geom::loop2d`].
+//!
+//! A node's patch is the set of triangles under it. Its *contour* is every
+//! directed edge of the patch not shared by two of its triangles: mesh boundary
+//! edges and the edges the BVH cut. Contours are stored once, as sorted lists
+//! of packed directed edges `edge_id << 1 | reversed`, with the sorted list of
+//! the patch's boundary vertices and its Euler characteristic.
+//!
+//! **Theorem used.** Let a patch be connected with Euler characteristic 1, be
+//! an orientable manifold (every edge in at most two triangles, every vertex
+//! star one fan), have every triangle normal strictly within 90 degrees of v,
+//! and let c be a point such that, projected along v, c lies strictly left of
+//! every directed contour edge with the edges turning around c once in total.
+//! Then the patch has no two non-adjacent triangles that touch. (Each cycle of
+//! contour edges turns around c a positive whole number of times, so one turn
+//! means one simple star-shaped loop; the projection is then a local,
+//! orientation-preserving map of a disk whose boundary goes once around a
+//! simple curve, so its degree is 1 and it is one-to-one.)
+//!
+//! The loop is checked in O(contour) by the star test about the patch's box
+//! centre; when that fails, contours up to 64 edges get the exact condition
+//! (one simple counter-clockwise loop). For the union of two adjacent disks A
+//! and B (glued along edges, or pinched at one vertex) the star test runs on
+//! the union's contour; failing that, A and B are each checked as above and
+//! their loops must meet only along the edges and vertices they share, neither
+//! inside the other: the projection is then one-to-one on each and their images
+//! meet only where the patches themselves meet.
+
+use crate::geom::loop2d::{Plane, Seg};
+use crate::mesh::{Csr, Mesh};
+use glam::DVec3;
+
+/// Per-node patch topology, fixed at build time.
+#[derive(Debug, Clone, Default)]
+pub struct Patches {
+    /// Sorted packed directed contour edges of each node.
+    pub contour: Csr,
+    /// Sorted boundary vertices of each node (the vertices of its contour).
+    pub boundary: Csr,
+    /// Euler characteristic V - E + F of each node's patch.
+    pub euler: Vec<i32>,
+    /// False when the patch holds a non-manifold element or inconsistent
+    /// winding: the contour test never passes for it.
+    pub eligible: Vec<bool>,
+}
+
+/// Packs directed edge `a -> b` (edge id `e`) as `e << 1 | (a > b)`.
+#[inline]
+pub fn pack(e: u32, a: u32, b: u32) -> u32 {
+    (e << 1) | (a > b) as u32
+}
+
+/// The directed vertex pair of a packed contour edge.
+#[inline]
+pub fn unpack(mesh: &Mesh, packed: u32) -> [u32; 2] {
+    let [lo, hi] = mesh.topology().edges[(packed >> 1) as usize];
+    if packed & 1 == 0 {
+        [lo, hi]
+    } else {
+        [hi, lo]
+    }
+}
+
+/// What merging two contours found.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MergeInfo {
+    /// Edges present in both contours (they become interior to the union).
+    pub shared_edges: u32,
+    /// A shared edge had the same direction on both sides: inconsistent winding.
+    pub conflict: bool,
+}
+
+/// Contour of the union of two disjoint patches: the symmetric difference of
+/// their sorted contours, written to `out`.
+pub fn merge_contours(a: &[u32], b: &[u32], out: &mut Vec<u32>) -> MergeInfo {
+    out.clear();
+    let mut info = MergeInfo::default();
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let (ea, eb) = (a[i] >> 1, b[j] >> 1);
+        if ea < eb {
+            out.push(a[i]);
+            i += 1;
+        } else if eb < ea {
+            out.push(b[j]);
+            j += 1;
+        } else {
+            info.shared_edges += 1;
+            info.conflict |= a[i] == b[j];
+            i += 1;
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    info
+}
+
+/// Number of common items of two sorted lists.
+pub fn count_common(a: &[u32], b: &[u32]) -> u32 {
+    let (mut i, mut j, mut n) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                n += 1;
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    n
+}
+
+/// True when two sorted lists share an item.
+pub fn have_common(a: &[u32], b: &[u32]) -> bool {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => return true,
+        }
+    }
+    false
+}
+
+impl Patches {
+    /// Contour of `node`.
+    #[inline]
+    pub fn contour_of(&self, node: u32) -> &[u32] {
+        self.contour.row(node as usize)
+    }
+
+    /// Boundary vertices of `node`.
+    #[inline]
+    pub fn boundary_of(&self, node: u32) -> &[u32] {
+        self.boundary.row(node as usize)
+    }
+}
+
+/// Projects directed contour edges along `axis` (relative to `origin`) into `out`.
+/// The basis (u, w, axis) is right-handed, so counter-clockwise seen from +axis
+/// stays counter-clockwise.
+pub fn project_contour(
+    mesh: &Mesh,
+    positions: &[DVec3],
+    contour: &[u32],
+    plane: &Plane,
+    out: &mut Vec<Seg>,
+) {
+    out.clear();
+    out.extend(contour.iter().map(|&e| {
+        let v = unpack(mesh, e);
+        Seg {
+            p: [
+                plane.project(positions[v[0] as usize]),
+                plane.project(positions[v[1] as usize]),
+            ],
+            v,
+        }
+    }));
+}
