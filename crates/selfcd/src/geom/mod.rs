@@ -4,6 +4,7 @@ pub mod aabb;
 pub mod ccd;
 pub mod cone;
 pub mod distance;
+pub mod exact_int;
 pub mod loop2d;
 pub mod predicates;
 pub mod tri_tri;

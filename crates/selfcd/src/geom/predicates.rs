@@ -1,16 +1,52 @@
-//! Exact orientation predicates (Shewchuk's adaptive arithmetic, `robust` crate)
-//! and the exact 2D tests built on them.
+//! Exact orientation predicates for every finite f64 input.
 //!
-//! Every function here returns the mathematically correct answer for its f64
-//! inputs: no epsilons, no case lost to rounding. Shewchuk's arithmetic is
-//! exact only while no product overflows or underflows, so callers that may
-//! see any finite scale first move their points with [`scale_exactly`].
+//! Every sign here is the mathematically correct one for the given doubles: no
+//! epsilons, no case lost to rounding, overflow or underflow, at any scale and
+//! any spread of coordinates. Two exact evaluations sit behind one interface,
+//! [`Orientation`] (signs over a small set of points named by index):
+//!
+//! - [`Expansion`]: Shewchuk's adaptive expansions (`robust` crate) on the
+//!   points moved by one power of two ([`scale_exactly`]). Exact whenever the
+//!   non-zero coordinates of the set span less than 2^500 (see
+//!   [`Expansion::new`] for the bound): every real mesh, at any scale.
+//! - [`super::exact_int::BigInts`]: the same signs on arbitrary-precision
+//!   integers (every double is m 2^e; all are shifted to the smallest e). Exact
+//!   for any finite doubles; used only for sets [`Expansion::new`] refuses.
+//!
+//! Callers pick with `Expansion::new(points)`, falling back to `BigInts`.
 
+use super::exact_int::BigInts;
 use glam::DVec3;
 use robust::{Coord, Coord3D};
+use std::cmp::Ordering;
+
+/// Exact signs over a fixed set of points named by index: the whole vocabulary
+/// of the triangle-triangle decision ([`super::tri_tri`]). Implementations
+/// must return the mathematically exact answer for the points they hold.
+pub trait Orientation {
+    /// Sign of det[a - d, b - d, c - d] for points `[a, b, c, d]`: +1 when d
+    /// lies below the plane through a, b, c seen counter-clockwise from above.
+    fn orient3d(&self, p: [usize; 4]) -> i8;
+    /// Sign of the signed area of `[a, b, c]` projected along `axis` (see [`project`]).
+    fn orient2d(&self, axis: usize, p: [usize; 3]) -> i8;
+    /// Compares coordinate `axis` of points `i` and `j`.
+    fn cmp(&self, axis: usize, i: usize, j: usize) -> Ordering;
+    /// An axis along which triangle `p`'s normal has a non-zero component (so
+    /// that dropping it projects the plane one-to-one); None when the corners
+    /// are collinear or coincide. Any such axis gives the same exact answers.
+    fn normal_axis(&self, p: [usize; 3]) -> Option<usize> {
+        (0..3).find(|&k| self.orient2d(k, p) != 0)
+    }
+    /// Points `i` and `j` coincide.
+    fn same(&self, i: usize, j: usize) -> bool {
+        (0..3).all(|k| self.cmp(k, i, j) == Ordering::Equal)
+    }
+}
 
 /// Sign of the volume of tetrahedron (a, b, c, d): +1, 0 or -1.
-/// Positive when d lies below the plane through a, b, c seen counter-clockwise from above.
+/// Positive when d lies below the plane through a, b, c seen counter-clockwise
+/// from above. Exact while no product overflows or underflows: use
+/// [`Expansion`] for inputs of any scale.
 #[inline]
 pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i8 {
     let c3 = |p: DVec3| Coord3D {
@@ -21,7 +57,8 @@ pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i8 {
     sign(robust::orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 
-/// Sign of twice the signed area of triangle (a, b, c): +1 counter-clockwise, 0 collinear, -1 clockwise.
+/// Sign of twice the signed area of triangle (a, b, c): +1 counter-clockwise,
+/// 0 collinear, -1 clockwise (same range of exactness as [`orient3d`]).
 #[inline]
 pub fn orient2d(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
     sign(orient2d_value(a, b, c))
@@ -56,18 +93,105 @@ pub fn project(p: DVec3, axis: usize) -> [f64; 2] {
     }
 }
 
-/// Signed normal components of (a, b, c), each with its exact sign (magnitudes approximate).
-#[inline]
-fn normal_signs(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
-    [0, 1, 2].map(|k| orient2d_value(project(a, k), project(b, k), project(c, k)))
+/// True when a, b, c are exactly collinear (or coincide): the triangle has no
+/// normal. Exact for any finite input.
+pub fn is_degenerate(a: DVec3, b: DVec3, c: DVec3) -> bool {
+    let p = [a, b, c];
+    match Expansion::new(p) {
+        Some(k) => k.normal_axis([0, 1, 2]).is_none(),
+        None => BigInts::new(&p).normal_axis([0, 1, 2]).is_none(),
+    }
 }
 
-/// True when a, b, c are exactly collinear (or coincide): the triangle has no
-/// normal. Exact at any scale (the points are scaled by a power of two first).
-pub fn is_degenerate(a: DVec3, b: DVec3, c: DVec3) -> bool {
-    let mut p = [a, b, c];
-    scale_exactly(&mut p);
-    normal_signs(p[0], p[1], p[2]) == [0.0; 3]
+/// Shewchuk's expansion arithmetic on `N` points moved by one power of two.
+#[derive(Debug, Clone, Copy)]
+pub struct Expansion<const N: usize> {
+    p: [DVec3; N],
+}
+
+/// Largest ratio (as a power of two) between the largest coordinate and the
+/// smallest non-zero one that [`Expansion`] accepts.
+const MAX_SPREAD: i32 = 500;
+
+impl<const N: usize> Expansion<N> {
+    /// The points scaled by [`scale_exactly`] (largest coordinate in
+    /// [2^300, 2^301)), or None when their non-zero coordinates span 2^500 or
+    /// more (or one is infinite): then use [`BigInts`]. Precondition: no NaN.
+    ///
+    /// Why this is exact: afterwards every non-zero coordinate lies in
+    /// [2^-200, 2^301), so (having 53 bits) it is a multiple of 2^-252. A
+    /// coordinate difference is below 2^302, an orientation term (a product of
+    /// three differences) below 2^906 and a multiple of 2^-756, as is every
+    /// partial product and rounding error Shewchuk's expansions form; the
+    /// adaptive stages' error bounds (about 2^-110 times such terms) stay above
+    /// 2^-870. Nothing overflows and nothing underflows, so each expansion is
+    /// the exact value and each sign is exact. The scaling itself is exact (no
+    /// coordinate leaves the normal range) and changes no sign (every
+    /// predicate is homogeneous).
+    #[inline]
+    pub fn new(mut p: [DVec3; N]) -> Option<Self> {
+        let (mut hi, mut lo) = (0.0f64, f64::INFINITY);
+        for x in p.iter().flat_map(|q| q.to_array()) {
+            let a = x.abs();
+            hi = hi.max(a);
+            if a != 0.0 {
+                lo = lo.min(a);
+            }
+        }
+        if !hi.is_finite() {
+            return None;
+        }
+        if hi != 0.0 && exponent(hi) - exponent(lo) >= MAX_SPREAD {
+            return None;
+        }
+        scale_exactly(&mut p);
+        Some(Expansion { p })
+    }
+
+    /// The scaled points.
+    #[inline]
+    pub fn points(&self) -> &[DVec3; N] {
+        &self.p
+    }
+}
+
+impl<const N: usize> Orientation for Expansion<N> {
+    #[inline]
+    fn orient3d(&self, [a, b, c, d]: [usize; 4]) -> i8 {
+        let p = &self.p;
+        orient3d(p[a], p[b], p[c], p[d])
+    }
+
+    #[inline]
+    fn orient2d(&self, axis: usize, [a, b, c]: [usize; 3]) -> i8 {
+        let q = |i: usize| project(self.p[i], axis);
+        orient2d(q(a), q(b), q(c))
+    }
+
+    #[inline]
+    fn cmp(&self, axis: usize, i: usize, j: usize) -> Ordering {
+        let (x, y) = (self.p[i][axis], self.p[j][axis]);
+        // Not total_cmp: -0 and +0 are the same coordinate.
+        if x < y {
+            Ordering::Less
+        } else if x > y {
+            Ordering::Greater
+        } else {
+            Ordering::Equal
+        }
+    }
+
+    /// The axis of the largest normal component (best conditioned; any
+    /// non-zero one would be exact).
+    #[inline]
+    fn normal_axis(&self, [a, b, c]: [usize; 3]) -> Option<usize> {
+        let n = [0, 1, 2].map(|k| {
+            let q = |i: usize| project(self.p[i], k);
+            orient2d_value(q(a), q(b), q(c)).abs()
+        });
+        let best = (1..3).fold(0, |best, k| if n[k] > n[best] { k } else { best });
+        (n[best] != 0.0).then_some(best)
+    }
 }
 
 /// Exponent the largest coordinate is moved to by [`scale_exactly`].
@@ -77,11 +201,7 @@ const SAFE_EXPONENT: i32 = 300;
 /// lies in [2^300, 2^301) (all-zero input is left alone). Orientation signs
 /// are unchanged (every predicate is homogeneous), and the scaling is exact
 /// unless a coordinate falls below 2^-1022 (more than 2^1322 under the
-/// largest). Afterwards the exact predicates cannot overflow (a product of
-/// three differences stays below 2^906), and they cannot underflow while every
-/// non-zero coordinate is at least 2^-300 (each term of an orientation
-/// determinant is a multiple of 2^-1074): so they are exact whenever the
-/// non-zero coordinates of one call span less than 2^600, at any scale.
+/// largest); [`Expansion::new`] applies it only where it is exact.
 pub fn scale_exactly(points: &mut [DVec3]) {
     let m = points
         .iter()
@@ -100,7 +220,7 @@ pub fn scale_exactly(points: &mut [DVec3]) {
 }
 
 /// floor(log2 |x|) for finite non-zero x (subnormals included).
-fn exponent(x: f64) -> i32 {
+pub(crate) fn exponent(x: f64) -> i32 {
     let bits = x.abs().to_bits();
     let e = (bits >> 52) as i32;
     if e == 0 {
@@ -110,6 +230,9 @@ fn exponent(x: f64) -> i32 {
         e - 1023
     }
 }
+
+/// 2^-1070: sixteen times the smallest subnormal.
+const UNDERFLOW: f64 = 8e-323;
 
 /// Unit roundoff of f64 (2^-53).
 const UNIT: f64 = f64::EPSILON / 2.0;
@@ -127,6 +250,13 @@ const UNIT: f64 = f64::EPSILON / 2.0;
 /// one, so 16u times the computed P bounds the error with room to spare. The
 /// decision is refused when that bound is below 2^-960 (underflow could break
 /// the analysis there) or anything is not finite (overflow).
+///
+/// Underflow adds an absolute error of at most 2^-1075 to each product (and
+/// none to a sum). The six products u_i v_j reach d multiplied by |w_k|, the
+/// three w_k n_k directly: at most (|w|_1 + 2) 2^-1074 (1 + 5u) in all, which
+/// (|w|_1 + 2) 2^-1070 bounds even after its own rounding. It matters when the
+/// coordinates span a wide range (a huge w against a cross product whose
+/// products underflow); the relative term alone would then be too small.
 #[inline]
 pub fn certainly_one_side(t: &[DVec3; 3], p: &[DVec3; 3]) -> bool {
     const MIN_BOUND: f64 = 1.0e-289; // < 2^-960
@@ -141,58 +271,15 @@ pub fn certainly_one_side(t: &[DVec3; 3], p: &[DVec3; 3]) -> bool {
     for q in p {
         let w = *q - t[0];
         let d = w.dot(n);
-        let bound = 16.0 * UNIT * w.abs().dot(perm);
+        let wa = w.abs();
+        let bound = 16.0 * UNIT * wa.dot(perm);
         if bound >= MIN_BOUND {
+            let bound = bound + (wa.element_sum() + 2.0) * UNDERFLOW;
             above += (d > bound) as u32;
             below += (d < -bound) as u32;
         }
     }
     above == 3 || below == 3
-}
-
-/// The axis along which triangle (a, b, c) has its largest normal component.
-/// Dropping it projects the triangle's plane one-to-one; the chosen component is
-/// exactly non-zero whenever the triangle is not degenerate.
-pub fn dominant_axis(a: DVec3, b: DVec3, c: DVec3) -> usize {
-    let n = normal_signs(a, b, c);
-    let mut best = 0;
-    for k in 1..3 {
-        if n[k].abs() > n[best].abs() {
-            best = k;
-        }
-    }
-    best
-}
-
-/// True when collinear point `p` lies on the closed segment [a, b] (exact comparisons).
-#[inline]
-fn on_segment(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> bool {
-    (0..2).all(|k| a[k].min(b[k]) <= p[k] && p[k] <= a[k].max(b[k]))
-}
-
-/// Do closed 2D segments [p1, p2] and [q1, q2] share a point? Zero-length segments allowed.
-pub fn segments_intersect_2d(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> bool {
-    let d1 = orient2d(q1, q2, p1);
-    let d2 = orient2d(q1, q2, p2);
-    let d3 = orient2d(p1, p2, q1);
-    let d4 = orient2d(p1, p2, q2);
-    if d1 * d2 < 0 && d3 * d4 < 0 {
-        return true;
-    }
-    (d1 == 0 && on_segment(q1, q2, p1))
-        || (d2 == 0 && on_segment(q1, q2, p2))
-        || (d3 == 0 && on_segment(p1, p2, q1))
-        || (d4 == 0 && on_segment(p1, p2, q2))
-}
-
-/// Is `p` in the closed 2D triangle t (any orientation, t not degenerate)?
-pub fn point_in_triangle_2d(p: [f64; 2], t: [[f64; 2]; 3]) -> bool {
-    let o = [
-        orient2d(t[0], t[1], p),
-        orient2d(t[1], t[2], p),
-        orient2d(t[2], t[0], p),
-    ];
-    o.iter().all(|&s| s >= 0) || o.iter().all(|&s| s <= 0)
 }
 
 #[cfg(test)]
@@ -261,44 +348,53 @@ mod tests {
         assert!(!certainly_one_side(&t, &touching));
         let tiny = [above[0], above[1], DVec3::new(1e6, 1e6, 1e-300)];
         assert!(!certainly_one_side(&t, &tiny));
+        assert_eq!(UNDERFLOW.to_bits(), 16);
+        // A huge w against a cross product whose products underflow: the true
+        // side is 2^-100 - 2^-101 (the first from u.y v.z = 2^-1100, which
+        // underflows), the computed one sees only the -2^-101; undecided, never "below".
+        let s = 2f64.powi(-550);
+        let t2 = [
+            DVec3::ZERO,
+            DVec3::new(0.0, s, 0.0),
+            DVec3::new(-1.0, 0.0, s),
+        ];
+        let q = DVec3::new(2f64.powi(1000), 0.0, -(2f64.powi(449)));
+        assert!(!certainly_one_side(&t2, &[q; 3]));
         // Overflow: undecided, never wrong.
         let huge = above.map(|q| q * 1e300);
         assert!(!certainly_one_side(&t.map(|q| q * 1e300), &huge));
     }
 
     #[test]
-    fn segments_touching_and_collinear() {
-        assert!(segments_intersect_2d(
-            [0., 0.],
-            [1., 0.],
-            [1., 0.],
-            [2., 5.]
+    fn expansions_refuse_wide_spreads_and_big_integers_take_them() {
+        let near = [
+            DVec3::new(1.0, 2.0, 3.0),
+            DVec3::new(2f64.powi(-400), 0.0, -0.0),
+        ];
+        assert!(Expansion::new(near).is_some());
+        let far = [DVec3::new(1e300, 0.0, 0.0), DVec3::new(1e-300, 0.0, 0.0)];
+        assert!(Expansion::new(far).is_none());
+        assert!(Expansion::new([DVec3::new(f64::INFINITY, 0.0, 0.0)]).is_none());
+        assert!(Expansion::new([DVec3::ZERO; 3]).is_some());
+        // Collinear only in exact arithmetic: (0,0,0), (t, t, 0), (1e300, 1e300, 0)
+        // with t subnormal; one ulp of the far point off the line is not.
+        let t = f64::from_bits(3);
+        let (o, a) = (DVec3::ZERO, DVec3::new(t, t, 0.0));
+        let b = DVec3::new(1e300, 1e300, 0.0);
+        assert!(is_degenerate(o, a, b));
+        let b_up = DVec3::new(1e300, f64::from_bits(1e300f64.to_bits() + 1), 0.0);
+        assert!(!is_degenerate(o, a, b_up));
+        // Largest finite values: the edge vectors overflow f64, the sign does not.
+        let m = f64::MAX;
+        assert!(is_degenerate(
+            DVec3::splat(-m),
+            DVec3::splat(m),
+            DVec3::splat(t)
         ));
-        assert!(segments_intersect_2d(
-            [0., 0.],
-            [2., 0.],
-            [1., 0.],
-            [3., 0.]
-        ));
-        assert!(!segments_intersect_2d(
-            [0., 0.],
-            [1., 0.],
-            [2., 0.],
-            [3., 0.]
-        ));
-        assert!(segments_intersect_2d(
-            [0., 0.],
-            [0., 0.],
-            [-1., -1.],
-            [1., 1.]
-        ));
-        assert!(point_in_triangle_2d(
-            [0., 0.],
-            [[0., 0.], [1., 0.], [0., 1.]]
-        ));
-        assert!(!point_in_triangle_2d(
-            [1., 1.],
-            [[0., 0.], [1., 0.], [0., 1.]]
+        assert!(!is_degenerate(
+            DVec3::splat(-m),
+            DVec3::splat(m),
+            DVec3::new(t, t, 0.0)
         ));
     }
 }

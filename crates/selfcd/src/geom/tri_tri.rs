@@ -1,17 +1,22 @@
-//! Exact intersection of closed triangles in 3D.
+//! Exact intersection of closed triangles in 3D, for any finite coordinates.
 //!
 //! Two closed triangles intersect iff (a) they are coplanar and their
 //! projections overlap, or (b) some edge of one meets the other: the extreme
 //! points of the convex set `A ∩ B` lie on an edge of A or of B when the planes
-//! differ. Every decision is an exact orientation sign, so touching at a point,
-//! along an edge and coplanar overlap are all reported, and nothing is lost to
-//! rounding. Degenerate (collapsed) triangles are handled as their edges.
+//! differ. Every decision is an exact sign ([`Orientation`]) over the six
+//! corners, so touching at a point, along an edge and coplanar overlap are all
+//! reported, and nothing is lost to rounding, overflow or underflow.
+//! Degenerate (collapsed) triangles are handled as their edges.
+//!
+//! The corners are named by index: a = 0, 1, 2 and b = 3, 4, 5. The decision is
+//! written once, generic over the arithmetic: Shewchuk's expansions for every
+//! ordinary pair ([`Expansion`]), big integers for pairs whose coordinates
+//! span 2^500 or more ([`BigInts`]).
 
-use super::predicates::{
-    certainly_one_side, dominant_axis, is_degenerate, orient3d, point_in_triangle_2d, project,
-    scale_exactly, segments_intersect_2d,
-};
+use super::exact_int::BigInts;
+use super::predicates::{certainly_one_side, Expansion, Orientation};
 use glam::DVec3;
+use std::cmp::Ordering;
 
 /// How a triangle pair was decided.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,58 +35,64 @@ impl Decision {
     }
 }
 
-/// The exact test behind a floating-point filter, for any finite scale:
-/// first the error-bounded plane-side test ([`certainly_one_side`]) both ways;
-/// when it cannot decide, both triangles are scaled by one power of two
-/// ([`scale_exactly`]) and given [`triangles_intersect`].
+/// The exact test behind a floating-point filter: first the error-bounded
+/// plane-side test ([`certainly_one_side`]) both ways; when it cannot decide,
+/// [`triangles_intersect`].
 #[inline]
 pub fn triangles_intersect_filtered(a: &[DVec3; 3], b: &[DVec3; 3]) -> Decision {
     if certainly_one_side(a, b) || certainly_one_side(b, a) {
         return Decision::FilterApart;
     }
-    let mut p = [a[0], a[1], a[2], b[0], b[1], b[2]];
-    scale_exactly(&mut p);
-    Decision::Exact(triangles_intersect(
-        &[p[0], p[1], p[2]],
-        &[p[3], p[4], p[5]],
-    ))
+    Decision::Exact(triangles_intersect(a, b))
 }
 
-/// True when closed triangles `a` and `b` share at least one point (exact
-/// while no orientation product overflows or underflows: see
-/// [`triangles_intersect_filtered`] for inputs of any scale).
+/// True when closed triangles `a` and `b` share at least one point. Exact for
+/// every finite input (precondition: no NaN or infinite coordinate).
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    let p = [a[0], a[1], a[2], b[0], b[1], b[2]];
+    match Expansion::new(p) {
+        Some(k) => intersect(&k),
+        None => intersect(&BigInts::new(&p)),
+    }
+}
+
+const A: [usize; 3] = [0, 1, 2];
+const B: [usize; 3] = [3, 4, 5];
+
+/// The decision on corners a = 0, 1, 2 and b = 3, 4, 5 of `k`.
+#[inline]
+fn intersect<K: Orientation>(k: &K) -> bool {
     // Plane-side rejection first: it settles most pairs, and it is valid for
     // degenerate triangles too (their orientations are all zero, never one-sided).
-    let sb = b.map(|p| orient3d(a[0], a[1], a[2], p));
+    let sb = B.map(|p| k.orient3d([A[0], A[1], A[2], p]));
     if strictly_one_side(sb) {
         return false;
     }
-    let sa = a.map(|p| orient3d(b[0], b[1], b[2], p));
+    let sa = A.map(|p| k.orient3d([B[0], B[1], B[2], p]));
     if strictly_one_side(sa) {
         return false;
     }
-    let da = is_degenerate(a[0], a[1], a[2]);
-    let db = is_degenerate(b[0], b[1], b[2]);
-    let any_edge =
-        |x: &[DVec3; 3], y: &[DVec3; 3]| edges(x).iter().any(|e| segment_triangle(e[0], e[1], y));
-    match (da, db) {
-        (true, true) => edges(a).iter().any(|ea| {
-            edges(b)
+    let na = k.normal_axis(A);
+    let nb = k.normal_axis(B);
+    let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
+        edges(x)
+            .iter()
+            .any(|e| segment_triangle(k, e[0], e[1], y, axis))
+    };
+    match (na, nb) {
+        (None, None) => edges(A).iter().any(|ea| {
+            edges(B)
                 .iter()
-                .any(|eb| segments_intersect_3d(ea[0], ea[1], eb[0], eb[1]))
+                .any(|eb| segments_intersect_3d(k, ea[0], ea[1], eb[0], eb[1]))
         }),
-        (true, false) => any_edge(a, b),
-        (false, true) => any_edge(b, a),
-        (false, false) if sb == [0; 3] => {
-            let k = dominant_axis(a[0], a[1], a[2]);
-            triangles_intersect_2d(a.map(|p| project(p, k)), b.map(|p| project(p, k)))
-        }
-        (false, false) => any_edge(a, b) || any_edge(b, a),
+        (None, Some(ax)) => any_edge(A, B, ax),
+        (Some(ax), None) => any_edge(B, A, ax),
+        (Some(ax), Some(_)) if sb == [0; 3] => triangles_intersect_2d(k, ax, A, B),
+        (Some(ax), Some(bx)) => any_edge(A, B, bx) || any_edge(B, A, ax),
     }
 }
 
-fn edges(t: &[DVec3; 3]) -> [[DVec3; 2]; 3] {
+fn edges(t: [usize; 3]) -> [[usize; 2]; 3] {
     [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]]
 }
 
@@ -89,75 +100,110 @@ fn strictly_one_side(s: [i8; 3]) -> bool {
     s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0)
 }
 
-/// Closed segment [p, q] against closed non-degenerate triangle t.
-pub fn segment_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
-    let op = orient3d(t[0], t[1], t[2], p);
-    let oq = orient3d(t[0], t[1], t[2], q);
+/// Closed segment [p, q] against closed non-degenerate triangle t, whose
+/// normal has a non-zero component along `axis`.
+fn segment_triangle<K: Orientation>(k: &K, p: usize, q: usize, t: [usize; 3], axis: usize) -> bool {
+    let op = k.orient3d([t[0], t[1], t[2], p]);
+    let oq = k.orient3d([t[0], t[1], t[2], q]);
     if op * oq > 0 {
         return false;
     }
     if op == 0 && oq == 0 {
-        let k = dominant_axis(t[0], t[1], t[2]);
-        let t2 = t.map(|v| project(v, k));
-        let (p2, q2) = (project(p, k), project(q, k));
-        return point_in_triangle_2d(p2, t2)
-            || (0..3).any(|i| segments_intersect_2d(p2, q2, t2[i], t2[(i + 1) % 3]));
+        return point_in_triangle_2d(k, axis, p, t)
+            || (0..3).any(|i| segments_intersect_2d(k, axis, [p, q], [t[i], t[(i + 1) % 3]]));
     }
     // The segment crosses (or ends on) the plane at one point: the line through
     // it hits the closed triangle iff it passes on the same side of all three edges.
     let s = [
-        orient3d(p, q, t[0], t[1]),
-        orient3d(p, q, t[1], t[2]),
-        orient3d(p, q, t[2], t[0]),
+        k.orient3d([p, q, t[0], t[1]]),
+        k.orient3d([p, q, t[1], t[2]]),
+        k.orient3d([p, q, t[2], t[0]]),
     ];
     s.iter().all(|&x| x >= 0) || s.iter().all(|&x| x <= 0)
 }
 
-/// Closed 2D triangles (both non-degenerate) share a point.
-fn triangles_intersect_2d(a: [[f64; 2]; 3], b: [[f64; 2]; 3]) -> bool {
-    (0..3)
-        .any(|i| (0..3).any(|j| segments_intersect_2d(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3])))
-        || point_in_triangle_2d(a[0], b)
-        || point_in_triangle_2d(b[0], a)
+/// Closed triangles a and b (both non-degenerate, coplanar, normal non-zero
+/// along `axis`) share a point.
+fn triangles_intersect_2d<K: Orientation>(
+    k: &K,
+    axis: usize,
+    a: [usize; 3],
+    b: [usize; 3],
+) -> bool {
+    edges(a).iter().any(|&ea| {
+        edges(b)
+            .iter()
+            .any(|&eb| segments_intersect_2d(k, axis, ea, eb))
+    }) || point_in_triangle_2d(k, axis, a[0], b)
+        || point_in_triangle_2d(k, axis, b[0], a)
 }
 
-/// Closed 3D segments share a point (zero-length segments allowed).
-pub fn segments_intersect_3d(p1: DVec3, p2: DVec3, q1: DVec3, q2: DVec3) -> bool {
-    if orient3d(p1, p2, q1, q2) != 0 {
+/// Closed 3D segments [p1, p2] and [q1, q2] share a point (zero-length segments allowed).
+fn segments_intersect_3d<K: Orientation>(
+    k: &K,
+    p1: usize,
+    p2: usize,
+    q1: usize,
+    q2: usize,
+) -> bool {
+    if k.orient3d([p1, p2, q1, q2]) != 0 {
         return false; // skew lines never meet
     }
-    let k = if !is_degenerate(p1, p2, q1) {
-        dominant_axis(p1, p2, q1)
-    } else if !is_degenerate(p1, p2, q2) {
-        dominant_axis(p1, p2, q2)
-    } else if !is_degenerate(q1, q2, p1) {
-        dominant_axis(q1, q2, p1)
-    } else {
-        // All four points on one line (or coincident): drop the axis the line is
-        // most nearly perpendicular to, which keeps the line one-to-one.
-        let d = if (p2 - p1).length_squared() >= (q2 - q1).length_squared() {
-            p2 - p1
-        } else {
-            q2 - q1
+    let axis = k
+        .normal_axis([p1, p2, q1])
+        .or_else(|| k.normal_axis([p1, p2, q2]))
+        .or_else(|| k.normal_axis([q1, q2, p1]));
+    if let Some(axis) = axis {
+        return segments_intersect_2d(k, axis, [p1, p2], [q1, q2]);
+    }
+    // All four points on one line (or coincident): keep a coordinate along
+    // which the line moves, which projects it one-to-one.
+    let moving = |i: usize, j: usize| (0..3).find(|&c| k.cmp(c, i, j) != Ordering::Equal);
+    match moving(p1, p2).or_else(|| moving(q1, q2)) {
+        Some(c) => segments_intersect_2d(k, (c + 1) % 3, [p1, p2], [q1, q2]),
+        None => k.same(p1, q1), // two points
+    }
+}
+
+/// Coordinates of the projection along `axis` (see [`super::predicates::project`]).
+fn kept(axis: usize) -> [usize; 2] {
+    [(axis + 1) % 3, (axis + 2) % 3]
+}
+
+/// Collinear point `r` lies on closed segment [a, b] (projected along `axis`).
+fn on_segment<K: Orientation>(k: &K, axis: usize, [a, b]: [usize; 2], r: usize) -> bool {
+    kept(axis).iter().all(|&c| {
+        let (lo, hi) = match k.cmp(c, a, b) {
+            Ordering::Greater => (b, a),
+            _ => (a, b),
         };
-        if d == DVec3::ZERO {
-            return p1 == q1; // two points (any projection could merge them)
-        }
-        let d = d.abs();
-        if d.x <= d.y && d.x <= d.z {
-            0
-        } else if d.y <= d.z {
-            1
-        } else {
-            2
-        }
-    };
-    segments_intersect_2d(
-        project(p1, k),
-        project(p2, k),
-        project(q1, k),
-        project(q2, k),
-    )
+        k.cmp(c, lo, r) != Ordering::Greater && k.cmp(c, r, hi) != Ordering::Greater
+    })
+}
+
+/// Closed segments p and q, projected along `axis`, share a point.
+fn segments_intersect_2d<K: Orientation>(k: &K, axis: usize, p: [usize; 2], q: [usize; 2]) -> bool {
+    let d1 = k.orient2d(axis, [q[0], q[1], p[0]]);
+    let d2 = k.orient2d(axis, [q[0], q[1], p[1]]);
+    let d3 = k.orient2d(axis, [p[0], p[1], q[0]]);
+    let d4 = k.orient2d(axis, [p[0], p[1], q[1]]);
+    if d1 * d2 < 0 && d3 * d4 < 0 {
+        return true;
+    }
+    (d1 == 0 && on_segment(k, axis, q, p[0]))
+        || (d2 == 0 && on_segment(k, axis, q, p[1]))
+        || (d3 == 0 && on_segment(k, axis, p, q[0]))
+        || (d4 == 0 && on_segment(k, axis, p, q[1]))
+}
+
+/// Point `r` lies in closed triangle t (any orientation, not degenerate), projected along `axis`.
+fn point_in_triangle_2d<K: Orientation>(k: &K, axis: usize, r: usize, t: [usize; 3]) -> bool {
+    let o = [
+        k.orient2d(axis, [t[0], t[1], r]),
+        k.orient2d(axis, [t[1], t[2], r]),
+        k.orient2d(axis, [t[2], t[0], r]),
+    ];
+    o.iter().all(|&s| s >= 0) || o.iter().all(|&s| s <= 0)
 }
 
 #[cfg(test)]
