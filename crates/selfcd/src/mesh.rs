@@ -166,12 +166,7 @@ impl Mesh {
             seen.insert(key, i);
         }
         let topo = Topology::new(n, &triangles);
-        let mean_edge = topo
-            .edges
-            .iter()
-            .map(|e| (rest[e[0] as usize] - rest[e[1] as usize]).length())
-            .sum::<f64>()
-            / topo.edges.len() as f64;
+        let mean_edge = mean_length(topo.edges.iter().map(|e| edge_length(&rest, *e)));
         Ok(Mesh {
             rest,
             tris: triangles,
@@ -292,6 +287,43 @@ impl Mesh {
     }
 }
 
+/// Magnitudes whose squares (and sums of a few) stay normal.
+const SAFE_LO: f64 = 1e-150;
+const SAFE_HI: f64 = 1e150;
+
+/// Length of edge `e`, without the underflow or overflow of a naive square
+/// root of squares: correct to a few ulps for any finite corners (edges of
+/// 2^-900 are not zero), saturated at `f64::MAX` when it exceeds that.
+fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
+    let (a, b) = (rest[e[0] as usize], rest[e[1] as usize]);
+    let norm = |d: DVec3| d.x.hypot(d.y).hypot(d.z);
+    let d = a - b;
+    let m = d.abs().max_element();
+    let len = if (SAFE_LO..SAFE_HI).contains(&m) {
+        d.length() // no square can overflow or underflow to zero
+    } else if d.is_finite() {
+        norm(d)
+    } else {
+        2.0 * norm(0.5 * a - 0.5 * b) // the difference overflowed: halve first
+    };
+    len.min(f64::MAX)
+}
+
+/// Mean of finite non-negative `lengths` (0 for none), scaled by the largest
+/// so that the sum cannot overflow.
+fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
+    let (n, top) = lengths
+        .clone()
+        .fold((0usize, 0.0f64), |(n, m), x| (n + 1, m.max(x)));
+    if top == 0.0 {
+        return 0.0;
+    }
+    if top < SAFE_HI {
+        return lengths.sum::<f64>() / n as f64; // the sum cannot overflow
+    }
+    lengths.map(|x| x / top).sum::<f64>() / n as f64 * top
+}
+
 fn check_finite(p: &[DVec3]) -> Result<()> {
     for (i, v) in p.iter().enumerate() {
         if let Some(&value) = v.as_ref().iter().find(|x| !x.is_finite()) {
@@ -365,5 +397,22 @@ mod tests {
             m.check_positions(&[DVec3::ZERO]),
             Err(Error::PositionsLength { .. })
         ));
+    }
+
+    #[test]
+    fn mean_edge_length_at_any_scale() {
+        let (v, f) = quad();
+        let unit = Mesh::new(v.clone(), f.clone()).unwrap().mean_edge_length();
+        assert_eq!(unit, (4.0 + 2f64.sqrt()) / 5.0);
+        for e in [-1000, -900, 600, 1000, 1022] {
+            let s = 2f64.powi(e.max(-1000)) * 2f64.powi(e - e.max(-1000));
+            let scaled = v.iter().map(|p| p.map(|x| x * s)).collect();
+            let got = Mesh::new(scaled, f.clone()).unwrap().mean_edge_length();
+            assert!((got / s - unit).abs() < 1e-14 * unit, "2^{e}: {got:e}");
+        }
+        // Corners at -MAX and +MAX: the edge exceeds f64, the mean saturates.
+        let far = vec![[-f64::MAX, 0., 0.], [f64::MAX, 0., 0.], [0., 1., 0.]];
+        let m = Mesh::new(far, vec![[0, 1, 2]]).unwrap().mean_edge_length();
+        assert!(m.is_finite() && m > 0.6 * f64::MAX, "{m:e}");
     }
 }
