@@ -5,6 +5,7 @@
 //! once and shared by the BVH, the sensor and the cloth.
 
 use crate::error::{Error, Result};
+use crate::geom::predicates::{exponent, mul_pow2};
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -287,30 +288,29 @@ impl Mesh {
     }
 }
 
-/// Magnitudes whose squares (and sums of a few) stay normal.
-const SAFE_LO: f64 = 1e-150;
-const SAFE_HI: f64 = 1e150;
-
-/// Length of edge `e`, without the underflow or overflow of a naive square
-/// root of squares: correct to a few ulps for any finite corners (edges of
-/// 2^-900 are not zero), saturated at `f64::MAX` when it exceeds that.
+/// Length of edge `e` for any finite corners: the difference is moved by a
+/// power of two to [1, 2) before squaring, so no square overflows or
+/// underflows (edges of 2^-900 are not zero), and the result is bit for bit
+/// the naive one wherever that does not overflow or underflow. Saturated at
+/// `f64::MAX` when the length exceeds it.
 fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
     let (a, b) = (rest[e[0] as usize], rest[e[1] as usize]);
-    let norm = |d: DVec3| d.x.hypot(d.y).hypot(d.z);
-    let d = a - b;
-    let m = d.abs().max_element();
-    let len = if (SAFE_LO..SAFE_HI).contains(&m) {
-        d.length() // no square can overflow or underflow to zero
-    } else if d.is_finite() {
-        norm(d)
-    } else {
-        2.0 * norm(0.5 * a - 0.5 * b) // the difference overflowed: halve first
+    let (d, twice) = match a - b {
+        d if d.is_finite() => (d, false),
+        _ => (0.5 * a - 0.5 * b, true), // the difference overflowed: halve first
     };
-    len.min(f64::MAX)
+    let m = d.abs().max_element();
+    if m == 0.0 {
+        return 0.0;
+    }
+    let k = exponent(m);
+    let len = mul_pow2(mul_pow2(d, -k).length(), k);
+    (if twice { 2.0 * len } else { len }).min(f64::MAX)
 }
 
-/// Mean of finite non-negative `lengths` (0 for none), scaled by the largest
-/// so that the sum cannot overflow.
+/// Mean of finite non-negative `lengths` (0 for none), summed at the scale of
+/// the largest so that the sum cannot overflow (bit for bit the naive mean
+/// where that does not overflow or underflow).
 fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
     let (n, top) = lengths
         .clone()
@@ -318,10 +318,8 @@ fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
     if top == 0.0 {
         return 0.0;
     }
-    if top < SAFE_HI {
-        return lengths.sum::<f64>() / n as f64; // the sum cannot overflow
-    }
-    lengths.map(|x| x / top).sum::<f64>() / n as f64 * top
+    let k = exponent(top);
+    mul_pow2(lengths.map(|x| mul_pow2(x, -k)).sum::<f64>() / n as f64, k)
 }
 
 fn check_finite(p: &[DVec3]) -> Result<()> {
@@ -408,7 +406,7 @@ mod tests {
             let s = 2f64.powi(e.max(-1000)) * 2f64.powi(e - e.max(-1000));
             let scaled = v.iter().map(|p| p.map(|x| x * s)).collect();
             let got = Mesh::new(scaled, f.clone()).unwrap().mean_edge_length();
-            assert!((got / s - unit).abs() < 1e-14 * unit, "2^{e}: {got:e}");
+            assert_eq!(got, unit * s, "2^{e}: bit for bit the unit mean, scaled");
         }
         // Corners at -MAX and +MAX: the edge exceeds f64, the mean saturates.
         let far = vec![[-f64::MAX, 0., 0.], [f64::MAX, 0., 0.], [0., 1., 0.]];

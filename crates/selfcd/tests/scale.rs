@@ -494,3 +494,25 @@ fn non_finite_coordinates_are_refused() {
         }
     }
 }
+
+#[test]
+fn rest_shapes_at_extreme_scales_are_accepted() {
+    // Edges of 2^-900 used to have length 0 (the squares underflowed), and the
+    // sensor refused such a rest shape for having no length unit.
+    let (v, f) = grid(6, 1.0);
+    let unit = Mesh::new(v.clone(), f.clone()).unwrap().mean_edge_length();
+    for e in [-1000, -900, 900, 1000] {
+        let s = pow2(e);
+        let scaled: Vec<[f64; 3]> = v.iter().map(|p| p.map(|x| x * s)).collect();
+        let mesh = Arc::new(Mesh::new(scaled, f.clone()).unwrap());
+        assert_eq!(mesh.mean_edge_length(), unit * s, "2^{e}");
+        let opts = DetectorOptions::default();
+        let mut d = new_detector(mesh.clone(), Method::SensorGated, &opts)
+            .unwrap_or_else(|err| panic!("2^{e}: {err}"));
+        let got = d.detect(mesh.rest()).unwrap().pairs;
+        assert!(
+            got.is_empty(),
+            "a flat grid has no self-intersection, 2^{e}"
+        );
+    }
+}

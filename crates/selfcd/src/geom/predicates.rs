@@ -209,14 +209,19 @@ pub fn scale_exactly(points: &mut [DVec3]) {
     if m == 0.0 || !m.is_finite() {
         return;
     }
-    let mut k = SAFE_EXPONENT - exponent(m);
-    // 2^k in at most three exactly representable steps (|k| may exceed 1023).
+    let k = SAFE_EXPONENT - exponent(m);
+    points.iter_mut().for_each(|p| *p = mul_pow2(*p, k));
+}
+
+/// x 2^k (for f64 or DVec3), in at most three exactly representable steps
+/// (|k| may exceed 1023): exact unless the result leaves the normal range.
+pub(crate) fn mul_pow2<T: std::ops::Mul<f64, Output = T>>(mut x: T, mut k: i32) -> T {
     while k != 0 {
         let step = k.clamp(-1000, 1000);
-        let f = f64::from_bits(((1023 + step) as u64) << 52);
-        points.iter_mut().for_each(|p| *p *= f);
+        x = x * f64::from_bits(((1023 + step) as u64) << 52);
         k -= step;
     }
+    x
 }
 
 /// floor(log2 |x|) for finite non-zero x (subnormals included).
