@@ -290,8 +290,9 @@ impl Mesh {
 
 /// Length of edge `e` for any finite corners: the difference is moved by a
 /// power of two to [1, 2) before squaring, so no square overflows or
-/// underflows (edges of 2^-900 are not zero), and the result is bit for bit
-/// the naive one wherever that does not overflow or underflow. Saturated at
+/// underflows (edges of 2^-900 are not zero); the result is bit for bit the
+/// naive one wherever that does not overflow or underflow (so the naive one
+/// is used there, the cheaper). Saturated at
 /// `f64::MAX` when the length exceeds it.
 fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
     let (a, b) = (rest[e[0] as usize], rest[e[1] as usize]);
@@ -300,6 +301,9 @@ fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
         _ => (0.5 * a - 0.5 * b, true), // the difference overflowed: halve first
     };
     let m = d.abs().max_element();
+    if (1e-150..1e150).contains(&m) {
+        return d.length(); // the common case: no square can overflow or underflow
+    }
     if m == 0.0 {
         return 0.0;
     }
@@ -317,6 +321,9 @@ fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
         .fold((0usize, 0.0f64), |(n, m), x| (n + 1, m.max(x)));
     if top == 0.0 {
         return 0.0;
+    }
+    if top < 1e150 {
+        return lengths.sum::<f64>() / n as f64; // the common case: no overflow
     }
     let k = exponent(top);
     mul_pow2(lengths.map(|x| mul_pow2(x, -k)).sum::<f64>() / n as f64, k)

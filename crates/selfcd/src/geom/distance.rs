@@ -2,6 +2,9 @@
 //!
 //! Plain f64 (these feed the simulator's proximity response, where a tolerance
 //! `d` is already in play); after Ericson, Real-Time Collision Detection, 5.1.
+//! Not scale-free, unlike the intersection test ([`super::tri_tri`]): squared
+//! lengths are formed directly, so they overflow for coordinates beyond about
+//! 1e154 and lose all precision below about 1e-154.
 
 use glam::DVec3;
 
