@@ -138,9 +138,7 @@ impl<const N: usize> Expansion<N> {
         for x in p.iter().flat_map(|q| q.to_array()) {
             let a = x.abs();
             hi = hi.max(a);
-            if a != 0.0 {
-                lo = lo.min(a);
-            }
+            lo = lo.min(if a == 0.0 { f64::INFINITY } else { a });
         }
         if !hi.is_finite() {
             return None;
@@ -245,8 +243,8 @@ pub(crate) fn exponent(x: f64) -> i32 {
     }
 }
 
-/// 2^-1070: sixteen times the smallest subnormal.
-const UNDERFLOW: f64 = 8e-323;
+/// 2^-1021: added to the filter's permanent to cover underflow.
+const UNDERFLOW: f64 = 4.450147717014403e-308;
 
 /// Unit roundoff of f64 (2^-53).
 const UNIT: f64 = f64::EPSILON / 2.0;
@@ -267,10 +265,13 @@ const UNIT: f64 = f64::EPSILON / 2.0;
 ///
 /// Underflow adds an absolute error of at most 2^-1075 to each product (and
 /// none to a sum). The six products u_i v_j reach d multiplied by |w_k|, the
-/// three w_k n_k directly: at most (|w|_1 + 2) 2^-1074 (1 + 5u) in all, which
-/// (|w|_1 + 2) 2^-1070 bounds even after its own rounding. It matters when the
-/// coordinates span a wide range (a huge w against a cross product whose
-/// products underflow); the relative term alone would then be too small.
+/// three w_k n_k directly: at most |w|_1 2^-1074 + 2^-1073 in all (up to a
+/// factor 1 + 5u). Adding 2^-1021 to each component of P's cross-product
+/// factor adds 16u 2^-1021 |w|_1 = 2^-1070 |w|_1 to the bound, sixteen times
+/// the first part, and the constant is far below the smallest bound used
+/// (2^-960). It matters when the coordinates span a wide range (a huge w
+/// against a cross product whose products underflow); it changes no bound of
+/// an ordinary pair.
 #[inline]
 pub fn certainly_one_side(t: &[DVec3; 3], p: &[DVec3; 3]) -> bool {
     const MIN_BOUND: f64 = 1.0e-289; // < 2^-960
@@ -280,15 +281,13 @@ pub fn certainly_one_side(t: &[DVec3; 3], p: &[DVec3; 3]) -> bool {
         (u.y * v.z).abs() + (u.z * v.y).abs(),
         (u.z * v.x).abs() + (u.x * v.z).abs(),
         (u.x * v.y).abs() + (u.y * v.x).abs(),
-    );
+    ) + DVec3::splat(UNDERFLOW);
     let (mut above, mut below) = (0, 0);
     for q in p {
         let w = *q - t[0];
         let d = w.dot(n);
-        let wa = w.abs();
-        let bound = 16.0 * UNIT * wa.dot(perm);
+        let bound = 16.0 * UNIT * w.abs().dot(perm);
         if bound >= MIN_BOUND {
-            let bound = bound + (wa.element_sum() + 2.0) * UNDERFLOW;
             above += (d > bound) as u32;
             below += (d < -bound) as u32;
         }
@@ -362,7 +361,7 @@ mod tests {
         assert!(!certainly_one_side(&t, &touching));
         let tiny = [above[0], above[1], DVec3::new(1e6, 1e6, 1e-300)];
         assert!(!certainly_one_side(&t, &tiny));
-        assert_eq!(UNDERFLOW.to_bits(), 16);
+        assert_eq!(UNDERFLOW, 2.0 * f64::MIN_POSITIVE);
         // A huge w against a cross product whose products underflow: the true
         // side is 2^-100 - 2^-101 (the first from u.y v.z = 2^-1100, which
         // underflows), the computed one sees only the -2^-101; undecided, never "below".
