@@ -70,19 +70,20 @@ impl Topology {
     /// triangles in increasing order. O(n): half-edges are bucketed by their
     /// smaller vertex (a counting sort), so no hashing and no global sort.
     pub fn new(n_vertices: usize, tris: &[[u32; 3]]) -> Topology {
-        let (edges, tri_edges) = unique_edges(n_vertices, tris);
-        let edge_tris = Csr::from_pairs(
-            edges.len(),
-            tri_edges
-                .iter()
-                .enumerate()
-                .flat_map(|(t, e)| e.iter().map(move |&e| (e, t as u32))),
-        );
-        let vertex_tris = Csr::from_pairs(
-            n_vertices,
-            tris.iter()
-                .enumerate()
-                .flat_map(|(t, v)| v.iter().map(move |&v| (v, t as u32))),
+        let rows = |rows: usize, items: &[[u32; 3]]| {
+            let pairs = items.iter().enumerate();
+            Csr::from_pairs(
+                rows,
+                pairs.flat_map(|(t, x)| x.iter().map(move |&x| (x, t as u32))),
+            )
+        };
+        let ((edges, tri_edges, edge_tris), vertex_tris) = rayon::join(
+            || {
+                let (edges, tri_edges) = unique_edges(n_vertices, tris);
+                let edge_tris = rows(edges.len(), &tri_edges);
+                (edges, tri_edges, edge_tris)
+            },
+            || rows(n_vertices, tris),
         );
         Topology {
             edges,
@@ -385,12 +386,17 @@ impl Mesh {
         }
         let mut fans = fan.len();
         for (i, &t) in fan.iter().enumerate() {
-            let k = self.tris[t as usize].iter().position(|&c| c == v).unwrap_or(0);
+            let k = self.tris[t as usize]
+                .iter()
+                .position(|&c| c == v)
+                .unwrap_or(0);
             // The two sides of t at corner k: k (from v) and k + 2 (into v).
             for side in [k, (k + 2) % 3] {
                 let e = topo.tri_edges[t as usize][side] as usize;
                 for &u in topo.edge_tris.row(e) {
-                    let Ok(j) = fan.binary_search(&u) else { continue };
+                    let Ok(j) = fan.binary_search(&u) else {
+                        continue;
+                    };
                     let (ri, rj) = (find(parent, i as u32), find(parent, j as u32));
                     if ri != rj {
                         parent[ri as usize] = rj;
@@ -462,6 +468,150 @@ mod tests {
         assert_eq!(t.edge_tris.row(diag as usize), &[0, 1]);
         assert_eq!(t.vertex_tris.row(0), &[0, 1]);
         assert!(m.share_vertex(0, 1));
+    }
+
+    /// Varied connectivity from a grid: a random subset of its triangles (so
+    /// some vertices become bow-ties), shuffled, some flipped, plus two fins on
+    /// one edge (three or four triangles there) and two closed fans sharing one vertex.
+    fn tangled(seed: u64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        use rand::{seq::SliceRandom, Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (mut v, tris) = crate::scene::grid(9, 1.0);
+        let mut f: Vec<[u32; 3]> = tris
+            .into_iter()
+            .filter_map(|[a, b, c]| match rng.gen_range(0..10) {
+                0 | 1 => None,
+                2 | 3 => Some([a, c, b]),
+                _ => Some([a, b, c]),
+            })
+            .collect();
+        let [a, b, _] = f[0];
+        for z in [1.0, -1.0] {
+            v.push([0.3, 0.3, z]);
+            f.push([a, b, v.len() as u32 - 1]);
+        }
+        // Two closed fans (double cone) at a new apex.
+        let apex = v.len() as u32;
+        v.push([5.0, 5.0, 0.0]);
+        for side in [-1.0, 1.0] {
+            let ring = v.len() as u32;
+            for k in 0..4 {
+                let t = k as f64 * std::f64::consts::FRAC_PI_2;
+                v.push([5.0 + t.cos(), 5.0 + t.sin(), side]);
+            }
+            f.extend((0..4).map(|k| [apex, ring + k, ring + (k + 1) % 4]));
+        }
+        f.shuffle(&mut rng);
+        (v, f)
+    }
+
+    #[test]
+    fn topology_matches_a_hash_map_reference() {
+        for seed in 0..8 {
+            let (v, f) = tangled(seed);
+            let topo = Topology::new(v.len(), &f);
+            let mut ids: HashMap<[u32; 2], u32> = HashMap::new();
+            let mut edges = Vec::new();
+            for (t, tri) in f.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let key = [a.min(b), a.max(b)];
+                    let id = *ids.entry(key).or_insert_with(|| {
+                        edges.push(key);
+                        edges.len() as u32 - 1
+                    });
+                    assert_eq!(topo.tri_edges[t][k], id);
+                    assert!(topo.edge_tris.row(id as usize).contains(&(t as u32)));
+                    assert!(topo.vertex_tris.row(a as usize).contains(&(t as u32)));
+                }
+            }
+            assert_eq!(topo.edges, edges);
+            for c in [&topo.edge_tris, &topo.vertex_tris] {
+                assert!((0..c.rows()).all(|r| c.row(r).windows(2).all(|w| w[0] < w[1])));
+            }
+            assert_eq!(topo.edge_tris.items.len(), 3 * f.len());
+            assert_eq!(topo.vertex_tris.items.len(), 3 * f.len());
+        }
+    }
+
+    #[test]
+    fn fan_walk_agrees_with_union_find() {
+        let (mut bowties, mut several) = (0, 0);
+        for seed in 0..8 {
+            let (v, f) = tangled(seed);
+            let m = Mesh::new(v, f).unwrap();
+            let bad = m.nonmanifold_triangles();
+            for v in 0..m.n_vertices() as u32 {
+                let fans = m.fans_at(v, &mut Vec::new());
+                assert_eq!(m.one_fan_at(v), fans <= 1, "vertex {v}, seed {seed}");
+                several += (fans > 1) as usize;
+                for &t in m.topology().vertex_tris.row(v as usize) {
+                    assert!(fans <= 1 || bad[t as usize]);
+                }
+            }
+            let fin = m
+                .topology()
+                .edge_tris
+                .offsets
+                .windows(2)
+                .any(|w| w[1] - w[0] > 2);
+            bowties += fin as usize;
+        }
+        assert!(
+            several > 8 && bowties == 8,
+            "{several} several-fan vertices, {bowties} fins"
+        );
+    }
+
+    #[test]
+    fn the_first_bad_triangle_is_named() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..40 {
+            let (v, mut f) = tangled(rng.gen());
+            let n = v.len() as u32;
+            for _ in 0..rng.gen_range(1..4) {
+                let i = rng.gen_range(0..f.len());
+                let j = rng.gen_range(0..f.len());
+                f[j] = match rng.gen_range(0..3) {
+                    0 => [f[i][1], f[i][2], f[i][0]],
+                    1 => [f[i][0], n + 3, f[i][2]],
+                    _ => [f[i][0], f[i][0], f[i][2]],
+                };
+            }
+            let got = Mesh::new(v.clone(), f.clone()).err().map(|e| e.to_string());
+            let want = first_error_reference(&f, v.len()).map(|e| e.to_string());
+            assert_eq!(got, want);
+        }
+    }
+
+    /// The first bad triangle in order, by the definition.
+    fn first_error_reference(f: &[[u32; 3]], n: usize) -> Option<Error> {
+        (0..f.len()).find_map(|i| {
+            let t = f[i];
+            let mut key = t;
+            key.sort_unstable();
+            if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
+                Some(Error::IndexOutOfRange {
+                    triangle: i,
+                    index: bad as u64,
+                    vertex_count: n,
+                })
+            } else if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                Some(Error::RepeatedVertex {
+                    triangle: i,
+                    indices: t,
+                })
+            } else {
+                (0..i)
+                    .find(|&j| {
+                        let mut k = f[j];
+                        k.sort_unstable();
+                        k == key
+                    })
+                    .map(|first| Error::DuplicateTriangle { first, second: i })
+            }
+        })
     }
 
     #[test]

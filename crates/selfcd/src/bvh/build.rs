@@ -36,10 +36,10 @@ pub fn build(mesh: &Mesh) -> Bvh {
         .unzip();
     boxes.reserve_exact(n.saturating_sub(1));
     cones.reserve_exact(n.saturating_sub(1));
-    let mut patches = PatchBuilder::leaves(mesh);
+    let (mut patches, mut level) =
+        rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh));
     let mut children: Vec<[u32; 2]> = Vec::with_capacity(n.saturating_sub(1));
     let mut levels = Vec::new();
-    let mut level = Level::leaves(mesh);
     while level.nodes.len() > 1 {
         let mate = level.matching(&boxes);
         let mut pairs = level.pairs(&mate);
@@ -124,7 +124,9 @@ impl Level {
             .map(|i| self.best_partner(i, &mate, boxes))
             .collect();
         // Unmatched places that still have a candidate.
-        let mut open: Vec<u32> = (0..m as u32).filter(|&i| best[i as usize] != NONE).collect();
+        let mut open: Vec<u32> = (0..m as u32)
+            .filter(|&i| best[i as usize] != NONE)
+            .collect();
         for round in 0..ROUNDS {
             if round > 0 {
                 let fresh: Vec<u32> = open
@@ -498,5 +500,126 @@ fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32
         edges: info.shared_edges,
         vertices: common,
         conflict: info.conflict,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{grid, Deformation};
+    use std::collections::BTreeMap;
+
+    /// A grid with holes, flipped triangles (winding conflicts), a fin and a
+    /// separate strip, so that every case of the patch merge is met.
+    fn mesh(seed: u64) -> Mesh {
+        let (mut v, mut f) = grid(12, 1.0);
+        let mut r = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = || {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r % 10
+        };
+        f = f
+            .into_iter()
+            .filter_map(|[a, b, c]| match next() {
+                0 => None,
+                1 => Some([a, c, b]),
+                _ => Some([a, b, c]),
+            })
+            .collect();
+        let [a, b, _] = f[3];
+        for z in [1.0, -1.0] {
+            v.push([0.5, 0.5, z]);
+            f.push([a, b, v.len() as u32 - 1]);
+        }
+        let s = v.len() as u32;
+        v.extend([
+            [0.0, 0.0, 5.0],
+            [1.0, 0.0, 5.0],
+            [0.0, 1.0, 5.0],
+            [1.0, 1.0, 5.0],
+        ]);
+        f.extend([[s, s + 1, s + 2], [s + 1, s + 3, s + 2]]);
+        Mesh::new(v, f).unwrap()
+    }
+
+    fn leaves_of(bvh: &Bvh, n: u32, out: &mut Vec<u32>) {
+        if bvh.is_leaf(n) {
+            out.push(n);
+        } else {
+            bvh.children_of(n)
+                .iter()
+                .for_each(|&c| leaves_of(bvh, c, out));
+        }
+    }
+
+    #[test]
+    fn patches_match_their_definition() {
+        for seed in 0..6 {
+            let m = mesh(seed);
+            let (topo, bad) = (m.topology(), m.nonmanifold_triangles());
+            let bvh = build(&m);
+            let p = &bvh.patches;
+            for n in 0..bvh.n_nodes() as u32 {
+                let mut tris = Vec::new();
+                leaves_of(&bvh, n, &mut tris);
+                // Directed edges of the patch by edge id.
+                let mut edges: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+                let mut verts: Vec<u32> = Vec::new();
+                for &t in &tris {
+                    let tri = m.triangles()[t as usize];
+                    for k in 0..3 {
+                        let e = topo.tri_edges[t as usize][k];
+                        edges
+                            .entry(e)
+                            .or_default()
+                            .push(pack(e, tri[k], tri[(k + 1) % 3]));
+                    }
+                    verts.extend(tri);
+                }
+                verts.sort_unstable();
+                verts.dedup();
+                let contour = p.contour_of(n);
+                let odd: Vec<u32> = edges
+                    .iter()
+                    .filter(|(_, d)| d.len() % 2 == 1)
+                    .map(|(&e, _)| e)
+                    .collect();
+                assert_eq!(contour.iter().map(|&e| e >> 1).collect::<Vec<_>>(), odd);
+                for &c in contour {
+                    let d = &edges[&(c >> 1)];
+                    assert!(d.len() > 1 || d[0] == c, "node {n}: direction of {c}");
+                }
+                let mut boundary: Vec<u32> = contour.iter().flat_map(|&e| unpack(&m, e)).collect();
+                boundary.sort_unstable();
+                boundary.dedup();
+                assert_eq!(p.boundary_of(n), &boundary[..], "node {n}");
+                let conflict = edges.values().any(|d| d.len() == 2 && d[0] == d[1]);
+                let eligible = !conflict && tris.iter().all(|&t| !bad[t as usize]);
+                assert_eq!(p.eligible[n as usize], eligible, "node {n}");
+                if eligible {
+                    let euler = verts.len() as i32 - edges.len() as i32 + tris.len() as i32;
+                    assert_eq!(p.euler[n as usize], euler, "node {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn built_boxes_and_cones_are_a_refit_at_rest() {
+        let m = mesh(1);
+        let bvh = build(&m);
+        let mut refitted = bvh.clone();
+        let p = Deformation::Crumple {
+            amplitude: 0.3,
+            wavelength: 0.5,
+            seed: 3,
+        }
+        .apply(m.rest());
+        refitted.refit(&m, &p);
+        refitted.refit(&m, m.rest());
+        assert_eq!(bvh.boxes, refitted.boxes);
+        assert_eq!(bvh.cones, refitted.cones);
     }
 }
