@@ -160,14 +160,24 @@ impl Level {
 
     /// The unmatched neighbour of place `i` whose merged box is smallest.
     fn best_partner(&self, i: usize, mate: &[u32], boxes: &[Aabb]) -> u32 {
+        let own = &boxes[self.nodes[i] as usize];
         let mut best = (f64::INFINITY, NONE);
         for &j in self.adjacency.row(i) {
             if mate[j as usize] != NONE {
                 continue;
             }
-            let k = merge_key(&self.nodes, boxes, i as u32, j);
-            if best.1 == NONE || key_less((k, i as u32, j), (best.0, i as u32, best.1)) {
-                best = (k, j);
+            // The union with the smaller id first, so that it is the same
+            // number from either side (min and max may differ on signed zeros).
+            let other = &boxes[self.nodes[j as usize] as usize];
+            let merged = if (j as usize) < i {
+                other.union(own)
+            } else {
+                own.union(other)
+            };
+            let area = merged.surface_area();
+            // With `i` common to both candidates, the ids' pair orders as `j`.
+            if best.1 == NONE || area.total_cmp(&best.0).then(j.cmp(&best.1)).is_lt() {
+                best = (area, j);
             }
         }
         best.1
@@ -228,21 +238,6 @@ impl Level {
 
 /// Rounds of locally dominant matching per level.
 const ROUNDS: usize = 8;
-
-/// Surface area of the union of the boxes of places `i` and `j`, computed with
-/// the smaller id first (so that it is the same number from either side).
-#[inline]
-fn merge_key(nodes: &[u32], boxes: &[Aabb], i: u32, j: u32) -> f64 {
-    let (a, b) = (nodes[i.min(j) as usize], nodes[i.max(j) as usize]);
-    boxes[a as usize].union(&boxes[b as usize]).surface_area()
-}
-
-/// Order of candidate merges `(area, i, j)`: area, then the ids' pair.
-#[inline]
-fn key_less(x: (f64, u32, u32), y: (f64, u32, u32)) -> bool {
-    let ids = |(_, i, j): (f64, u32, u32)| (i.min(j), i.max(j));
-    x.0.total_cmp(&y.0).then(ids(x).cmp(&ids(y))).is_lt()
-}
 
 /// Partners for nodes with no shared edges (separate components): in order
 /// along the longest axis of their joint box, consecutive ones; an odd one out
@@ -383,6 +378,16 @@ impl PatchBuilder {
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut out = PatchOut::default();
+                let len =
+                    |c: &Csr, n: u32| (c.offsets[n as usize + 1] - c.offsets[n as usize]) as usize;
+                let (mut nc, mut nb) = (0, 0);
+                for &(l, r) in chunk {
+                    nc += len(&self.contour, l) + len(&self.contour, r);
+                    nb += len(&self.boundary, l) + len(&self.boundary, r);
+                }
+                out.contour.reserve(nc);
+                out.boundary.reserve(nb);
+                out.degree.reserve(nb);
                 let mut shared = Vec::new();
                 for &(l, r) in chunk {
                     self.union(mesh, l as usize, r as usize, &mut out, &mut shared);
@@ -466,35 +471,39 @@ fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32
         ends.extend(unpack(mesh, e))
     });
     ends.sort_unstable();
-    let (mut i, mut j, mut s) = (0, 0, 0);
-    let mut common = 0;
-    while i < a.boundary.len() || j < b.boundary.len() {
-        let va = a.boundary.get(i).copied().unwrap_or(u32::MAX);
-        let vb = b.boundary.get(j).copied().unwrap_or(u32::MAX);
-        let v = va.min(vb);
-        let mut d = 0;
-        if va == v {
-            d += a.degree[i];
+    let (mut i, mut j, mut s, mut common) = (0, 0, 0, 0);
+    // Stored degrees are positive, so a vertex on one side only stays.
+    while i < a.boundary.len() && j < b.boundary.len() {
+        let (va, vb) = (a.boundary[i], b.boundary[j]);
+        if va < vb {
+            out.boundary.push(va);
+            out.degree.push(a.degree[i]);
             i += 1;
-        }
-        if vb == v {
-            d += b.degree[j];
+        } else if vb < va {
+            out.boundary.push(vb);
+            out.degree.push(b.degree[j]);
             j += 1;
-        }
-        if va == vb {
+        } else {
             common += 1;
-            while s < ends.len() && ends[s] < v {
+            let mut d = a.degree[i] + b.degree[j];
+            while s < ends.len() && ends[s] < va {
                 s += 1;
             }
-            while s < ends.len() && ends[s] == v {
+            while s < ends.len() && ends[s] == va {
                 d -= 2;
                 s += 1;
             }
+            if d > 0 {
+                out.boundary.push(va);
+                out.degree.push(d);
+            }
+            i += 1;
+            j += 1;
         }
-        if d > 0 {
-            out.boundary.push(v);
-            out.degree.push(d);
-        }
+    }
+    for (side, k) in [(a, i), (b, j)] {
+        out.boundary.extend_from_slice(&side.boundary[k..]);
+        out.degree.extend_from_slice(&side.degree[k..]);
     }
     Shared {
         edges: info.shared_edges,
