@@ -7,6 +7,7 @@
 use crate::error::{Error, Result};
 use crate::geom::predicates::{exponent, mul_pow2};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to `i`.
@@ -64,34 +65,26 @@ pub struct Topology {
 
 impl Topology {
     /// Builds the topology of `tris` over `n_vertices` vertices (indices must be valid).
+    ///
+    /// Edges are numbered in order of first appearance (triangle `t`, side `k`
+    /// in order `3 t + k`); every row of `edge_tris` and `vertex_tris` lists its
+    /// triangles in increasing order. O(n): half-edges are bucketed by their
+    /// smaller vertex (a counting sort), so no hashing and no global sort.
     pub fn new(n_vertices: usize, tris: &[[u32; 3]]) -> Topology {
-        let mut edge_id: HashMap<(u32, u32), u32> = HashMap::with_capacity(tris.len() * 2);
-        let mut edges = Vec::with_capacity(tris.len() * 3 / 2 + 1);
-        let mut tri_edges = Vec::with_capacity(tris.len());
-        for t in tris {
-            let mut ids = [0u32; 3];
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let key = (a.min(b), a.max(b));
-                ids[k] = *edge_id.entry(key).or_insert_with(|| {
-                    edges.push([key.0, key.1]);
-                    (edges.len() - 1) as u32
-                });
-            }
-            tri_edges.push(ids);
-        }
-        let edge_tris = Csr::from_pairs(
-            edges.len(),
-            tri_edges
-                .iter()
-                .enumerate()
-                .flat_map(|(t, e)| e.iter().map(move |&e| (e, t as u32))),
-        );
-        let vertex_tris = Csr::from_pairs(
-            n_vertices,
-            tris.iter()
-                .enumerate()
-                .flat_map(|(t, v)| v.iter().map(move |&v| (v, t as u32))),
+        let rows = |rows: usize, items: &[[u32; 3]]| {
+            let pairs = items.iter().enumerate();
+            Csr::from_pairs(
+                rows,
+                pairs.flat_map(|(t, x)| x.iter().map(move |&x| (x, t as u32))),
+            )
+        };
+        let ((edges, tri_edges, edge_tris), vertex_tris) = rayon::join(
+            || {
+                let (edges, tri_edges) = unique_edges(n_vertices, tris);
+                let edge_tris = rows(edges.len(), &tri_edges);
+                (edges, tri_edges, edge_tris)
+            },
+            || rows(n_vertices, tris),
         );
         Topology {
             edges,
@@ -106,6 +99,93 @@ impl Topology {
     pub fn is_manifold_interior(&self, e: u32) -> bool {
         self.edge_tris.row(e as usize).len() == 2
     }
+
+    /// The first pair `(first, second)` of triangles with the same vertex set,
+    /// smallest `second` first (ties: smallest `first`), or None.
+    /// Two such triangles share all three edges, so it is enough to compare
+    /// the third corners of the triangles on each edge.
+    fn first_duplicate(&self, tris: &[[u32; 3]]) -> Option<(usize, usize)> {
+        let third = |t: u32, [a, b]: [u32; 2]| {
+            let v = tris[t as usize];
+            v[0] as u64 + v[1] as u64 + v[2] as u64 - a as u64 - b as u64
+        };
+        (0..self.edges.len())
+            .into_par_iter()
+            .filter_map(|e| {
+                let (row, ends) = (self.edge_tris.row(e), self.edges[e]);
+                // Rows are increasing, so (tj, ti) is (second, first).
+                let mut best: Option<(usize, usize)> = None;
+                for (j, &tj) in row.iter().enumerate().skip(1) {
+                    for &ti in &row[..j] {
+                        let key = (tj as usize, ti as usize);
+                        if third(ti, ends) == third(tj, ends) && best.is_none_or(|b| key < b) {
+                            best = Some(key);
+                        }
+                    }
+                }
+                best
+            })
+            .min()
+            .map(|(second, first)| (first, second))
+    }
+}
+
+/// Unique undirected edges (smaller vertex first), numbered in order of first
+/// appearance, and each triangle's edge ids.
+fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u32; 3]>) {
+    let sides = || {
+        tris.iter().enumerate().flat_map(|(t, v)| {
+            (0..3).map(move |k| {
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                (3 * t as u32 + k as u32, a.min(b), a.max(b))
+            })
+        })
+    };
+    // Counting sort of the half-edges by their smaller vertex, each stored
+    // as `larger vertex << 32 | half-edge index`.
+    let mut start = vec![0u32; n_vertices + 1];
+    for (_, lo, _) in sides() {
+        start[lo as usize + 1] += 1;
+    }
+    for v in 0..n_vertices {
+        start[v + 1] += start[v];
+    }
+    let mut cursor = start.clone();
+    let mut keys = vec![0u64; 3 * tris.len()];
+    for (h, lo, hi) in sides() {
+        let c = &mut cursor[lo as usize];
+        keys[*c as usize] = (hi as u64) << 32 | h as u64;
+        *c += 1;
+    }
+    // Within a bucket, sorted keys with the same larger vertex are one edge;
+    // `first[h]` is the first half-edge of h's edge.
+    let mut first = vec![0u32; keys.len()];
+    for v in 0..n_vertices {
+        let bucket = &mut keys[start[v] as usize..start[v + 1] as usize];
+        bucket.sort_unstable();
+        let mut lead = (u32::MAX, 0);
+        for &key in bucket.iter() {
+            let (hi, h) = ((key >> 32) as u32, key as u32);
+            if hi != lead.0 {
+                lead = (hi, h);
+            }
+            first[h as usize] = lead.1;
+        }
+    }
+    // Number edges at their first half-edge; later half-edges copy the id
+    // (`first[h] < h` is already renumbered when h is reached).
+    let mut edges = Vec::with_capacity(keys.len() / 2 + 1);
+    for (h, lo, hi) in sides() {
+        let (h, f) = (h as usize, first[h as usize] as usize);
+        first[h] = if f == h {
+            edges.push([lo, hi]);
+            (edges.len() - 1) as u32
+        } else {
+            first[f]
+        };
+    }
+    let tri_edges = first.chunks_exact(3).map(|e| [e[0], e[1], e[2]]).collect();
+    (edges, tri_edges)
 }
 
 /// A triangle mesh with validated rest positions and its topology.
@@ -144,29 +224,16 @@ impl Mesh {
         let rest: Vec<DVec3> = vertices.iter().map(|v| DVec3::from_array(*v)).collect();
         check_finite(&rest)?;
         let n = rest.len();
-        let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(triangles.len());
-        for (i, t) in triangles.iter().enumerate() {
-            if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
-                return Err(Error::IndexOutOfRange {
-                    triangle: i,
-                    index: bad as u64,
-                    vertex_count: n,
-                });
-            }
-            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                return Err(Error::RepeatedVertex {
-                    triangle: i,
-                    indices: *t,
-                });
-            }
-            let mut key = *t;
-            key.sort_unstable();
-            if let Some(&first) = seen.get(&key) {
-                return Err(Error::DuplicateTriangle { first, second: i });
-            }
-            seen.insert(key, i);
+        let invalid = |t: &[u32; 3]| {
+            t.iter().any(|&v| v as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
+        };
+        if let Some(i) = triangles.par_iter().position_first(invalid) {
+            return Err(first_invalid(&triangles[..=i], n));
         }
         let topo = Topology::new(n, &triangles);
+        if let Some((first, second)) = topo.first_duplicate(&triangles) {
+            return Err(Error::DuplicateTriangle { first, second });
+        }
         let mean_edge = mean_length(topo.edges.iter().map(|e| edge_length(&rest, *e)));
         Ok(Mesh {
             rest,
@@ -238,53 +305,103 @@ impl Mesh {
     /// Flags, per triangle, whether it touches a non-manifold edge (more than two
     /// triangles) or a non-manifold vertex (its triangles form several fans).
     pub fn nonmanifold_triangles(&self) -> Vec<bool> {
-        let mesh = self;
-        let topo = mesh.topology();
-        let tris = mesh.triangles();
-        let mut bad = vec![false; tris.len()];
-        for e in 0..topo.edges.len() {
-            let row = topo.edge_tris.row(e);
-            if row.len() > 2 {
-                row.iter().for_each(|&t| bad[t as usize] = true);
+        let topo = &self.topo;
+        let several_fans: Vec<bool> = (0..self.n_vertices() as u32)
+            .into_par_iter()
+            .map(|v| !self.one_fan_at(v))
+            .collect();
+        self.tris
+            .par_iter()
+            .zip(&topo.tri_edges)
+            .map(|(t, e)| {
+                e.iter().any(|&e| topo.edge_tris.row(e as usize).len() > 2)
+                    || t.iter().any(|&v| several_fans[v as usize])
+            })
+            .collect()
+    }
+
+    /// True when the triangles at vertex `v` form one fan: connected through
+    /// edges at `v`. Where every edge at `v` has at most two triangles, the
+    /// fans are paths and cycles, so a walk around `v` from one triangle (both
+    /// ways when it stops at a border) meets all of them only if there is one;
+    /// at a non-manifold edge, a union-find over the vertex's triangles decides.
+    fn one_fan_at(&self, v: u32) -> bool {
+        let fan = self.topo.vertex_tris.row(v as usize);
+        let Some(&first) = fan.first() else {
+            return true;
+        };
+        let mut seen = 1;
+        for leave in self.edges_at(first, v) {
+            let (mut t, mut e) = (first, leave);
+            loop {
+                t = match *self.topo.edge_tris.row(e as usize) {
+                    [x, y] => x ^ y ^ t,
+                    [_] => break,
+                    _ => return self.fans_at(v, &mut Vec::new()) == 1,
+                };
+                if t == first {
+                    return seen == fan.len();
+                }
+                seen += 1;
+                let [a, b] = self.edges_at(t, v);
+                e = if a == e { b } else { a };
             }
         }
-        // A vertex is manifold when its triangles are connected through edges at it.
-        let mut parent: Vec<u32> = Vec::new();
-        for v in 0..mesh.n_vertices() {
-            let fan = topo.vertex_tris.row(v);
-            if fan.len() < 2 {
-                continue;
+        seen == fan.len()
+    }
+
+    /// The two edges of triangle `t` at its corner `v`.
+    #[inline]
+    fn edges_at(&self, t: u32, v: u32) -> [u32; 2] {
+        let tri = self.tris[t as usize];
+        let k = if tri[0] == v {
+            0
+        } else if tri[1] == v {
+            1
+        } else {
+            2
+        };
+        let e = self.topo.tri_edges[t as usize];
+        [e[k], e[(k + 2) % 3]]
+    }
+
+    /// Number of fans at vertex `v`: classes of its triangles connected
+    /// through edges at `v` (union-find over the vertex's triangles, whose
+    /// row is sorted, so a neighbour's place is a binary search).
+    fn fans_at(&self, v: u32, parent: &mut Vec<u32>) -> usize {
+        let topo = &self.topo;
+        let fan = topo.vertex_tris.row(v as usize);
+        parent.clear();
+        parent.extend(0..fan.len() as u32);
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
             }
-            parent.clear();
-            parent.extend(0..fan.len() as u32);
-            fn find(p: &mut [u32], mut x: u32) -> u32 {
-                while p[x as usize] != x {
-                    p[x as usize] = p[p[x as usize] as usize];
-                    x = p[x as usize];
-                }
-                x
-            }
-            for i in 0..fan.len() {
-                for j in i + 1..fan.len() {
-                    let (ti, tj) = (fan[i] as usize, fan[j] as usize);
-                    let shares_edge_at_v = topo.tri_edges[ti].iter().any(|e| {
-                        topo.tri_edges[tj].contains(e)
-                            && topo.edges[*e as usize].contains(&(v as u32))
-                    });
-                    if shares_edge_at_v {
-                        let (ri, rj) = (find(&mut parent, i as u32), find(&mut parent, j as u32));
+            x
+        }
+        let mut fans = fan.len();
+        for (i, &t) in fan.iter().enumerate() {
+            let k = self.tris[t as usize]
+                .iter()
+                .position(|&c| c == v)
+                .unwrap_or(0);
+            // The two sides of t at corner k: k (from v) and k + 2 (into v).
+            for side in [k, (k + 2) % 3] {
+                let e = topo.tri_edges[t as usize][side] as usize;
+                for &u in topo.edge_tris.row(e) {
+                    let Ok(j) = fan.binary_search(&u) else {
+                        continue;
+                    };
+                    let (ri, rj) = (find(parent, i as u32), find(parent, j as u32));
+                    if ri != rj {
                         parent[ri as usize] = rj;
+                        fans -= 1;
                     }
                 }
             }
-            let roots = (0..fan.len() as u32)
-                .filter(|&i| find(&mut parent, i) == i)
-                .count();
-            if roots > 1 {
-                fan.iter().for_each(|&t| bad[t as usize] = true);
-            }
         }
-        bad
+        fans
     }
 }
 
@@ -329,6 +446,35 @@ fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
     mul_pow2(lengths.map(|x| mul_pow2(x, -k)).sum::<f64>() / n as f64, k)
 }
 
+/// The first error of `triangles` in order (index out of range, repeated
+/// vertex, or a duplicate of an earlier triangle); the slow path, run only
+/// when the fast checks found an invalid triangle (the last one given).
+fn first_invalid(triangles: &[[u32; 3]], n: usize) -> Error {
+    let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(triangles.len());
+    for (i, t) in triangles.iter().enumerate() {
+        if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
+            return Error::IndexOutOfRange {
+                triangle: i,
+                index: bad as u64,
+                vertex_count: n,
+            };
+        }
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            return Error::RepeatedVertex {
+                triangle: i,
+                indices: *t,
+            };
+        }
+        let mut key = *t;
+        key.sort_unstable();
+        if let Some(&first) = seen.get(&key) {
+            return Error::DuplicateTriangle { first, second: i };
+        }
+        seen.insert(key, i);
+    }
+    unreachable!("the last triangle given is invalid")
+}
+
 fn check_finite(p: &[DVec3]) -> Result<()> {
     for (i, v) in p.iter().enumerate() {
         if let Some(&value) = v.as_ref().iter().find(|x| !x.is_finite()) {
@@ -359,6 +505,150 @@ mod tests {
         assert_eq!(t.edge_tris.row(diag as usize), &[0, 1]);
         assert_eq!(t.vertex_tris.row(0), &[0, 1]);
         assert!(m.share_vertex(0, 1));
+    }
+
+    /// Varied connectivity from a grid: a random subset of its triangles (so
+    /// some vertices become bow-ties), shuffled, some flipped, plus two fins on
+    /// one edge (three or four triangles there) and two closed fans sharing one vertex.
+    fn tangled(seed: u64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        use rand::{seq::SliceRandom, Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (mut v, tris) = crate::scene::grid(9, 1.0);
+        let mut f: Vec<[u32; 3]> = tris
+            .into_iter()
+            .filter_map(|[a, b, c]| match rng.gen_range(0..10) {
+                0 | 1 => None,
+                2 | 3 => Some([a, c, b]),
+                _ => Some([a, b, c]),
+            })
+            .collect();
+        let [a, b, _] = f[0];
+        for z in [1.0, -1.0] {
+            v.push([0.3, 0.3, z]);
+            f.push([a, b, v.len() as u32 - 1]);
+        }
+        // Two closed fans (double cone) at a new apex.
+        let apex = v.len() as u32;
+        v.push([5.0, 5.0, 0.0]);
+        for side in [-1.0, 1.0] {
+            let ring = v.len() as u32;
+            for k in 0..4 {
+                let t = k as f64 * std::f64::consts::FRAC_PI_2;
+                v.push([5.0 + t.cos(), 5.0 + t.sin(), side]);
+            }
+            f.extend((0..4).map(|k| [apex, ring + k, ring + (k + 1) % 4]));
+        }
+        f.shuffle(&mut rng);
+        (v, f)
+    }
+
+    #[test]
+    fn topology_matches_a_hash_map_reference() {
+        for seed in 0..8 {
+            let (v, f) = tangled(seed);
+            let topo = Topology::new(v.len(), &f);
+            let mut ids: HashMap<[u32; 2], u32> = HashMap::new();
+            let mut edges = Vec::new();
+            for (t, tri) in f.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let key = [a.min(b), a.max(b)];
+                    let id = *ids.entry(key).or_insert_with(|| {
+                        edges.push(key);
+                        edges.len() as u32 - 1
+                    });
+                    assert_eq!(topo.tri_edges[t][k], id);
+                    assert!(topo.edge_tris.row(id as usize).contains(&(t as u32)));
+                    assert!(topo.vertex_tris.row(a as usize).contains(&(t as u32)));
+                }
+            }
+            assert_eq!(topo.edges, edges);
+            for c in [&topo.edge_tris, &topo.vertex_tris] {
+                assert!((0..c.rows()).all(|r| c.row(r).windows(2).all(|w| w[0] < w[1])));
+            }
+            assert_eq!(topo.edge_tris.items.len(), 3 * f.len());
+            assert_eq!(topo.vertex_tris.items.len(), 3 * f.len());
+        }
+    }
+
+    #[test]
+    fn fan_walk_agrees_with_union_find() {
+        let (mut bowties, mut several) = (0, 0);
+        for seed in 0..8 {
+            let (v, f) = tangled(seed);
+            let m = Mesh::new(v, f).unwrap();
+            let bad = m.nonmanifold_triangles();
+            for v in 0..m.n_vertices() as u32 {
+                let fans = m.fans_at(v, &mut Vec::new());
+                assert_eq!(m.one_fan_at(v), fans <= 1, "vertex {v}, seed {seed}");
+                several += (fans > 1) as usize;
+                for &t in m.topology().vertex_tris.row(v as usize) {
+                    assert!(fans <= 1 || bad[t as usize]);
+                }
+            }
+            let fin = m
+                .topology()
+                .edge_tris
+                .offsets
+                .windows(2)
+                .any(|w| w[1] - w[0] > 2);
+            bowties += fin as usize;
+        }
+        assert!(
+            several > 8 && bowties == 8,
+            "{several} several-fan vertices, {bowties} fins"
+        );
+    }
+
+    #[test]
+    fn the_first_bad_triangle_is_named() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..40 {
+            let (v, mut f) = tangled(rng.gen());
+            let n = v.len() as u32;
+            for _ in 0..rng.gen_range(1..4) {
+                let i = rng.gen_range(0..f.len());
+                let j = rng.gen_range(0..f.len());
+                f[j] = match rng.gen_range(0..3) {
+                    0 => [f[i][1], f[i][2], f[i][0]],
+                    1 => [f[i][0], n + 3, f[i][2]],
+                    _ => [f[i][0], f[i][0], f[i][2]],
+                };
+            }
+            let got = Mesh::new(v.clone(), f.clone()).err().map(|e| e.to_string());
+            let want = first_error_reference(&f, v.len()).map(|e| e.to_string());
+            assert_eq!(got, want);
+        }
+    }
+
+    /// The first bad triangle in order, by the definition.
+    fn first_error_reference(f: &[[u32; 3]], n: usize) -> Option<Error> {
+        (0..f.len()).find_map(|i| {
+            let t = f[i];
+            let mut key = t;
+            key.sort_unstable();
+            if let Some(&bad) = t.iter().find(|&&v| v as usize >= n) {
+                Some(Error::IndexOutOfRange {
+                    triangle: i,
+                    index: bad as u64,
+                    vertex_count: n,
+                })
+            } else if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                Some(Error::RepeatedVertex {
+                    triangle: i,
+                    indices: t,
+                })
+            } else {
+                (0..i)
+                    .find(|&j| {
+                        let mut k = f[j];
+                        k.sort_unstable();
+                        k == key
+                    })
+                    .map(|first| Error::DuplicateTriangle { first, second: i })
+            }
+        })
     }
 
     #[test]

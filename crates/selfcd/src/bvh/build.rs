@@ -2,243 +2,248 @@
 //!
 //! Level by level, nodes are paired greedily so that the merged box is
 //! smallest, as in the paper (computed in parallel as locally dominant edges,
-//! see [`dominant_matching`]); we measure boxes by *surface area*, not volume,
+//! see [`Level::matching`]); we measure boxes by *surface area*, not volume,
 //! because a flat cloth's boxes all have zero volume. Only nodes whose patches
 //! share an edge are paired, so every node is a connected patch of surface
 //! (the cone and contour tests need that). When no two remaining nodes share
 //! an edge (separate components), they are paired in spatial order.
+//!
+//! Everything is parallel within a level and O(n) over the whole build: the
+//! nodes' adjacency is coarsened row by row (no global sort), and each
+//! parent's patch comes from its children's sorted lists by linear merges
+//! (see [`union`]); boxes and cones are fitted as the parents are made, so no
+//! refit follows. The result does not depend on the number of threads.
 
-use super::patch::{self, count_common, merge_contours, pack, Patches};
+use super::patch::{merge_contours_with, pack, unpack, Patches};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
 use rayon::prelude::*;
 
-/// Growing per-node patch data while building.
-struct PatchBuilder {
-    contour: Vec<Vec<u32>>,
-    boundary: Vec<Vec<u32>>,
-    euler: Vec<i32>,
-    eligible: Vec<bool>,
-}
-
-impl PatchBuilder {
-    fn leaves(mesh: &Mesh) -> PatchBuilder {
-        let topo = mesh.topology();
-        let bad = mesh.nonmanifold_triangles();
-        let n = mesh.n_triangles();
-        let mut b = PatchBuilder {
-            contour: Vec::with_capacity(2 * n),
-            boundary: Vec::with_capacity(2 * n),
-            euler: vec![1; n],
-            eligible: bad.iter().map(|&x| !x).collect(),
-        };
-        for (t, tri) in mesh.triangles().iter().enumerate() {
-            let e = topo.tri_edges[t];
-            let mut c: Vec<u32> = (0..3)
-                .map(|k| pack(e[k], tri[k], tri[(k + 1) % 3]))
-                .collect();
-            c.sort_unstable();
-            let mut v = tri.to_vec();
-            v.sort_unstable();
-            b.contour.push(c);
-            b.boundary.push(v);
-        }
-        b
-    }
-
-    /// Appends the patches of the unions of the `pairs` (disjoint nodes), in order.
-    fn push_level(&mut self, mesh: &Mesh, pairs: &[(u32, u32)]) {
-        let unions: Vec<_> = pairs
-            .par_iter()
-            .map(|&(l, r)| self.union(mesh, l as usize, r as usize))
-            .collect();
-        for (c, v, euler, eligible) in unions {
-            self.contour.push(c);
-            self.boundary.push(v);
-            self.euler.push(euler);
-            self.eligible.push(eligible);
-        }
-    }
-
-    /// Contour, boundary vertices, Euler characteristic and eligibility of the
-    /// union of disjoint nodes `l` and `r`.
-    fn union(&self, mesh: &Mesh, l: usize, r: usize) -> (Vec<u32>, Vec<u32>, i32, bool) {
-        let mut c = Vec::new();
-        let info = merge_contours(&self.contour[l], &self.contour[r], &mut c);
-        let shared_v = count_common(&self.boundary[l], &self.boundary[r]) as i32;
-        let mut v: Vec<u32> = c.iter().flat_map(|&e| patch::unpack(mesh, e)).collect();
-        v.sort_unstable();
-        v.dedup();
-        let euler = self.euler[l] + self.euler[r] - shared_v + info.shared_edges as i32;
-        let eligible = self.eligible[l] && self.eligible[r] && !info.conflict;
-        (c, v, euler, eligible)
-    }
-
-    fn finish(self) -> Patches {
-        let flat = |rows: Vec<Vec<u32>>| {
-            Csr::from_pairs(
-                rows.len(),
-                rows.iter()
-                    .enumerate()
-                    .flat_map(|(i, r)| r.iter().map(move |&x| (i as u32, x))),
-            )
-        };
-        Patches {
-            contour: flat(self.contour),
-            boundary: flat(self.boundary),
-            euler: self.euler,
-            eligible: self.eligible,
-        }
-    }
-}
-
 /// Builds the hierarchy of `mesh` on its rest shape, with boxes and cones fitted to it.
 pub fn build(mesh: &Mesh) -> Bvh {
     let n = mesh.n_triangles();
     let rest = mesh.rest();
-    let mut boxes: Vec<Aabb> = (0..n)
+    let (mut boxes, mut cones): (Vec<Aabb>, Vec<NormalCone>) = (0..n)
         .into_par_iter()
-        .map(|t| Aabb::from_points(&mesh.corners(rest, t)))
-        .collect();
-    let mut patches = PatchBuilder::leaves(mesh);
+        .map(|t| {
+            let c = mesh.corners(rest, t);
+            (
+                Aabb::from_points(&c),
+                NormalCone::of_triangle(c[0], c[1], c[2]),
+            )
+        })
+        .unzip();
+    boxes.reserve_exact(n.saturating_sub(1));
+    cones.reserve_exact(n.saturating_sub(1));
+    let (mut patches, mut level) =
+        rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh));
     let mut children: Vec<[u32; 2]> = Vec::with_capacity(n.saturating_sub(1));
     let mut levels = Vec::new();
-
-    let mut active: Vec<u32> = (0..n as u32).collect();
-    let mut graph = leaf_graph(mesh);
-    let mut rep: Vec<u32> = (0..(2 * n) as u32).collect();
-    while active.len() > 1 {
-        let level_start = (n + children.len()) as u32;
-        let mut matched = dominant_matching(&graph, &boxes);
-        if matched.is_empty() {
-            matched = spatial_pairs(&active, &boxes);
-        }
-        // Number parents in the order of their children, so that refitting a
-        // level reads the previous levels almost sequentially (cache locality).
-        for m in matched.iter_mut() {
-            *m = (m.0.min(m.1), m.0.max(m.1));
-        }
-        matched.par_sort_unstable();
-        patches.push_level(mesh, &matched);
-        for &(a, b) in &matched {
-            let p = (n + children.len()) as u32;
-            children.push([a, b]);
-            boxes.push(boxes[a as usize].union(&boxes[b as usize]));
-            rep[a as usize] = p;
-            rep[b as usize] = p;
-        }
-        levels.push(level_start..(n + children.len()) as u32);
-        active = active.iter().map(|&a| rep[a as usize]).collect();
-        active.sort_unstable();
-        active.dedup();
-        graph = graph
+    while level.nodes.len() > 1 {
+        let mate = level.matching(&boxes);
+        let mut pairs = level.pairs(&mate);
+        let mate = if pairs.is_empty() {
+            let mate = spatial_mates(&level.nodes, &boxes);
+            pairs = level.pairs(&mate);
+            mate
+        } else {
+            mate
+        };
+        let first = (n + children.len()) as u32;
+        let fitted: Vec<(Aabb, NormalCone)> = pairs
             .par_iter()
             .map(|&(a, b)| {
-                let (x, y) = (rep[a as usize], rep[b as usize]);
-                (x.min(y), x.max(y))
+                let (a, b) = (a as usize, b as usize);
+                (boxes[a].union(&boxes[b]), cones[a].merge(&cones[b]))
             })
-            .filter(|&(x, y)| x != y)
             .collect();
-        graph.par_sort_unstable();
-        graph.dedup();
+        boxes.extend(fitted.iter().map(|f| f.0));
+        cones.extend(fitted.iter().map(|f| f.1));
+        patches.push_level(mesh, &pairs);
+        children.extend(pairs.iter().map(|&(a, b)| [a, b]));
+        levels.push(first..first + pairs.len() as u32);
+        level = level.coarsen(&mate, first);
     }
-    let cones = vec![NormalCone::FULL; boxes.len()];
-    let mut bvh = Bvh {
+    Bvh {
         n_leaves: n,
         children,
         levels,
         boxes,
         cones,
         patches: patches.finish(),
-    };
-    bvh.refit(mesh, rest);
-    bvh
+    }
 }
 
-/// Pairs of triangles sharing an edge, (a, b) with a < b, sorted.
-fn leaf_graph(mesh: &Mesh) -> Vec<(u32, u32)> {
-    let topo = mesh.topology();
-    let mut g = Vec::with_capacity(topo.edges.len());
-    for e in 0..topo.edges.len() {
-        let row = topo.edge_tris.row(e);
-        for i in 0..row.len() {
-            for j in i + 1..row.len() {
-                g.push((row[i].min(row[j]), row[i].max(row[j])));
+/// Marks a node without a partner.
+const NONE: u32 = u32::MAX;
+
+/// The nodes still to be paired and which of them share an edge.
+struct Level {
+    /// Node ids, increasing.
+    nodes: Vec<u32>,
+    /// Row i: the places in `nodes` of the nodes sharing an edge with `nodes[i]`.
+    adjacency: Csr,
+}
+
+impl Level {
+    /// The leaves, adjacent when their triangles share an edge.
+    fn leaves(mesh: &Mesh) -> Level {
+        let topo = mesh.topology();
+        let adjacency = par_rows(mesh.n_triangles(), |t, row| {
+            for &e in &topo.tri_edges[t] {
+                let others = topo.edge_tris.row(e as usize).iter();
+                row.extend(others.filter(|&&u| u as usize != t));
             }
+            // Two triangles share at most one edge (else they would be
+            // duplicates), so only a non-manifold edge can repeat a neighbour.
+            row.sort_unstable();
+            row.dedup();
+        });
+        Level {
+            nodes: (0..mesh.n_triangles() as u32).collect(),
+            adjacency,
         }
     }
-    g.par_sort_unstable();
-    g.dedup();
-    g
+
+    /// Greedy matching of adjacent nodes in order of merged box surface area
+    /// (ties by ids), computed as locally dominant edges: an edge that is the
+    /// best of both its endpoints is in the greedy matching, so matching those,
+    /// dropping their endpoints and repeating gives the greedy result with no
+    /// global sort. A node's best only changes when its best partner is taken,
+    /// so later rounds revisit only those. Rounds stop after [`ROUNDS`] (a long
+    /// chain of ever larger merges would otherwise take one round per edge);
+    /// nodes left unmatched wait for the next level.
+    /// Returns each place's partner place, or [`NONE`].
+    fn matching(&self, boxes: &[Aabb]) -> Vec<u32> {
+        let m = self.nodes.len();
+        let mut mate = vec![NONE; m];
+        let mut best: Vec<u32> = (0..m)
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|i| self.best_partner(i, &mate, boxes))
+            .collect();
+        // Unmatched places that still have a candidate.
+        let mut open: Vec<u32> = (0..m as u32)
+            .filter(|&i| best[i as usize] != NONE)
+            .collect();
+        for round in 0..ROUNDS {
+            if round > 0 {
+                let fresh: Vec<u32> = open
+                    .par_iter()
+                    .with_min_len(CHUNK)
+                    .map(|&i| match best[i as usize] {
+                        b if mate[b as usize] == NONE => b,
+                        _ => self.best_partner(i as usize, &mate, boxes),
+                    })
+                    .collect();
+                for (&i, b) in open.iter().zip(fresh) {
+                    best[i as usize] = b;
+                }
+                open.retain(|&i| best[i as usize] != NONE);
+            }
+            let mut matched = false;
+            for &i in &open {
+                let b = best[i as usize];
+                if best[b as usize] == i {
+                    mate[i as usize] = b;
+                    matched = true;
+                }
+            }
+            if !matched {
+                break;
+            }
+            open.retain(|&i| mate[i as usize] == NONE);
+        }
+        mate
+    }
+
+    /// The unmatched neighbour of place `i` whose merged box is smallest.
+    fn best_partner(&self, i: usize, mate: &[u32], boxes: &[Aabb]) -> u32 {
+        let own = &boxes[self.nodes[i] as usize];
+        let mut best = (f64::INFINITY, NONE);
+        for &j in self.adjacency.row(i) {
+            if mate[j as usize] != NONE {
+                continue;
+            }
+            // The union with the smaller id first, so that it is the same
+            // number from either side (min and max may differ on signed zeros).
+            let other = &boxes[self.nodes[j as usize] as usize];
+            let merged = if (j as usize) < i {
+                other.union(own)
+            } else {
+                own.union(other)
+            };
+            let area = merged.surface_area();
+            // With `i` common to both candidates, the ids' pair orders as `j`.
+            if best.1 == NONE || area.total_cmp(&best.0).then(j.cmp(&best.1)).is_lt() {
+                best = (area, j);
+            }
+        }
+        best.1
+    }
+
+    /// The matched node pairs `(a, b)`, a < b, in increasing order of `a`.
+    fn pairs(&self, mate: &[u32]) -> Vec<(u32, u32)> {
+        (0..mate.len())
+            .filter(|&i| (i as u32) < mate[i] && mate[i] != NONE)
+            .map(|i| (self.nodes[i], self.nodes[mate[i] as usize]))
+            .collect()
+    }
+
+    /// The next level: unmatched nodes (kept, in order), then the parents of
+    /// the pairs (ids from `first`, in the order of [`pairs`](Self::pairs)),
+    /// adjacent when any of their children were.
+    fn coarsen(&self, mate: &[u32], first: u32) -> Level {
+        let m = self.nodes.len();
+        let kept = mate.iter().filter(|&&x| x == NONE).count() as u32;
+        // New place of every old place; `members[q]` lists the old places of q.
+        let mut place = vec![0u32; m];
+        let mut members = vec![[NONE; 2]; m - (m - kept as usize) / 2];
+        let (mut k, mut p) = (0u32, kept);
+        for i in 0..m {
+            if mate[i] == NONE {
+                place[i] = k;
+                members[k as usize] = [i as u32, NONE];
+                k += 1;
+            } else if (i as u32) < mate[i] {
+                place[i] = p;
+                place[mate[i] as usize] = p;
+                members[p as usize] = [i as u32, mate[i]];
+                p += 1;
+            }
+        }
+        let nodes = members
+            .iter()
+            .enumerate()
+            .map(|(q, &[i, _])| {
+                if (q as u32) < kept {
+                    self.nodes[i as usize]
+                } else {
+                    first + q as u32 - kept
+                }
+            })
+            .collect();
+        let adjacency = par_rows(members.len(), |q, row| {
+            for &i in members[q].iter().filter(|&&i| i != NONE) {
+                let near = self.adjacency.row(i as usize).iter();
+                row.extend(near.map(|&j| place[j as usize]).filter(|&x| x != q as u32));
+            }
+            row.sort_unstable();
+            row.dedup();
+        });
+        Level { nodes, adjacency }
+    }
 }
 
 /// Rounds of locally dominant matching per level.
 const ROUNDS: usize = 8;
 
-/// Key ordering candidate merges: merged box surface area, ties by ids.
-type Key = (f64, u32, u32);
-
-fn key_less(x: &Key, y: &Key) -> bool {
-    x.0.total_cmp(&y.0)
-        .then(x.1.cmp(&y.1))
-        .then(x.2.cmp(&y.2))
-        .is_lt()
-}
-
-/// The greedy matching of graph edges in order of merged box surface area
-/// (ties by ids), computed as locally dominant edges: an edge that is the
-/// best of both its endpoints is in the greedy matching, so matching those,
-/// dropping their endpoints and repeating gives the greedy result with O(E)
-/// work per round and no global sort. Rounds stop after [`ROUNDS`] (a long
-/// chain of ever larger merges would otherwise take one round per edge); nodes
-/// left unmatched wait for the next level.
-fn dominant_matching(graph: &[(u32, u32)], boxes: &[Aabb]) -> Vec<(u32, u32)> {
-    let mut cand: Vec<Key> = graph
-        .par_iter()
-        .map(|&(a, b)| {
-            (
-                boxes[a as usize].union(&boxes[b as usize]).surface_area(),
-                a,
-                b,
-            )
-        })
-        .collect();
-    const NONE: Key = (f64::INFINITY, u32::MAX, u32::MAX);
-    let mut best = vec![NONE; boxes.len()];
-    let mut used = vec![false; boxes.len()];
-    let mut out = Vec::new();
-    for _ in 0..ROUNDS {
-        if cand.is_empty() {
-            break;
-        }
-        for c in &cand {
-            for v in [c.1, c.2] {
-                if key_less(c, &best[v as usize]) {
-                    best[v as usize] = *c;
-                }
-            }
-        }
-        for c in &cand {
-            if best[c.1 as usize] == *c && best[c.2 as usize] == *c {
-                used[c.1 as usize] = true;
-                used[c.2 as usize] = true;
-                out.push((c.1, c.2));
-            }
-        }
-        for c in &cand {
-            best[c.1 as usize] = NONE;
-            best[c.2 as usize] = NONE;
-        }
-        cand.retain(|c| !used[c.1 as usize] && !used[c.2 as usize]);
-    }
-    out
-}
-
-/// Pairs nodes with no shared edges (separate components) in order along the
-/// longest axis of their joint box; an odd one out waits for the next level.
-fn spatial_pairs(active: &[u32], boxes: &[Aabb]) -> Vec<(u32, u32)> {
-    let all = active
+/// Partners for nodes with no shared edges (separate components): in order
+/// along the longest axis of their joint box, consecutive ones; an odd one out
+/// waits for the next level.
+fn spatial_mates(nodes: &[u32], boxes: &[Aabb]) -> Vec<u32> {
+    let all = nodes
         .iter()
         .fold(Aabb::EMPTY, |b, &a| b.union(&boxes[a as usize]));
     let ext = all.max - all.min;
@@ -249,11 +254,381 @@ fn spatial_pairs(active: &[u32], boxes: &[Aabb]) -> Vec<(u32, u32)> {
     } else {
         2
     };
-    let mut order = active.to_vec();
+    let mut order: Vec<u32> = (0..nodes.len() as u32).collect();
     order.sort_by(|&a, &b| {
-        boxes[a as usize].center()[k]
-            .total_cmp(&boxes[b as usize].center()[k])
-            .then(a.cmp(&b))
+        let c = |i: u32| boxes[nodes[i as usize] as usize].center()[k];
+        c(a).total_cmp(&c(b)).then(a.cmp(&b))
     });
-    order.chunks_exact(2).map(|p| (p[0], p[1])).collect()
+    let mut mate = vec![NONE; nodes.len()];
+    for p in order.chunks_exact(2) {
+        mate[p[0] as usize] = p[1];
+        mate[p[1] as usize] = p[0];
+    }
+    mate
+}
+
+/// Rows filled in parallel by `fill(row, out)` (which appends to `out`),
+/// gathered into one [`Csr`]. Rows are filled in fixed chunks, so the result
+/// does not depend on the number of threads.
+fn par_rows(rows: usize, fill: impl Fn(usize, &mut Vec<u32>) + Sync) -> Csr {
+    let parts: Vec<(Vec<u32>, Vec<u32>)> = (0..rows.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut items, mut ends) = (Vec::new(), Vec::with_capacity(CHUNK));
+            let mut row = Vec::new();
+            for r in c * CHUNK..((c + 1) * CHUNK).min(rows) {
+                row.clear();
+                fill(r, &mut row);
+                items.extend_from_slice(&row);
+                ends.push(items.len() as u32);
+            }
+            (items, ends)
+        })
+        .collect();
+    let mut csr = Csr {
+        offsets: Vec::with_capacity(rows + 1),
+        items: Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum()),
+    };
+    csr.offsets.push(0);
+    for (items, ends) in parts {
+        let base = csr.items.len() as u32;
+        csr.offsets.extend(ends.iter().map(|&e| base + e));
+        csr.items.extend_from_slice(&items);
+    }
+    csr
+}
+
+/// Rows per parallel task.
+const CHUNK: usize = 1024;
+
+/// Growing per-node patch data while building: [`Patches`] plus, for every
+/// boundary vertex, its number of contour edges (what makes a union's
+/// boundary a linear merge).
+struct PatchBuilder {
+    contour: Csr,
+    boundary: Csr,
+    /// Contour edges at each boundary vertex, aligned with `boundary.items`.
+    degree: Vec<u32>,
+    euler: Vec<i32>,
+    eligible: Vec<bool>,
+}
+
+/// One node's patch, as computed in a parallel task.
+#[derive(Default)]
+struct PatchOut {
+    contour: Vec<u32>,
+    contour_ends: Vec<u32>,
+    boundary: Vec<u32>,
+    degree: Vec<u32>,
+    boundary_ends: Vec<u32>,
+    euler: Vec<i32>,
+    eligible: Vec<bool>,
+}
+
+impl PatchBuilder {
+    /// The leaves: each triangle's three directed edges and three corners
+    /// (two contour edges at each), Euler characteristic 1.
+    fn leaves(mesh: &Mesh) -> PatchBuilder {
+        let topo = mesh.topology();
+        let n = mesh.n_triangles();
+        let bad = mesh.nonmanifold_triangles();
+        let (contour, boundary): (Vec<[u32; 3]>, Vec<[u32; 3]>) = mesh
+            .triangles()
+            .par_iter()
+            .zip(&topo.tri_edges)
+            .map(|(tri, e)| {
+                let mut c = [0, 1, 2].map(|k| pack(e[k], tri[k], tri[(k + 1) % 3]));
+                c.sort_unstable();
+                let mut v = *tri;
+                v.sort_unstable();
+                (c, v)
+            })
+            .unzip();
+        let threes = |rows: Vec<[u32; 3]>| Csr {
+            offsets: (0..=n as u32).map(|i| 3 * i).collect(),
+            items: rows.into_iter().flatten().collect(),
+        };
+        let mut b = PatchBuilder {
+            contour: threes(contour),
+            boundary: threes(boundary),
+            degree: vec![2; 3 * n],
+            euler: vec![1; n],
+            eligible: bad.iter().map(|&x| !x).collect(),
+        };
+        b.reserve(n);
+        b
+    }
+
+    /// Room for `n` more nodes of about the leaves' average size, so that
+    /// the levels append without reallocating (the total is about three
+    /// times the leaves' lists for patches that grow like disks).
+    fn reserve(&mut self, n: usize) {
+        self.contour.offsets.reserve_exact(n);
+        self.boundary.offsets.reserve_exact(n);
+        self.contour.items.reserve(3 * self.contour.items.len());
+        self.boundary.items.reserve(3 * self.boundary.items.len());
+        self.degree.reserve(3 * self.degree.len());
+        self.euler.reserve_exact(n);
+        self.eligible.reserve_exact(n);
+    }
+
+    /// Appends the patches of the unions of `pairs` (disjoint nodes), in order.
+    fn push_level(&mut self, mesh: &Mesh, pairs: &[(u32, u32)]) {
+        let parts: Vec<PatchOut> = pairs
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut out = PatchOut::default();
+                let len =
+                    |c: &Csr, n: u32| (c.offsets[n as usize + 1] - c.offsets[n as usize]) as usize;
+                let (mut nc, mut nb) = (0, 0);
+                for &(l, r) in chunk {
+                    nc += len(&self.contour, l) + len(&self.contour, r);
+                    nb += len(&self.boundary, l) + len(&self.boundary, r);
+                }
+                out.contour.reserve(nc);
+                out.boundary.reserve(nb);
+                out.degree.reserve(nb);
+                let mut shared = Vec::new();
+                for &(l, r) in chunk {
+                    self.union(mesh, l as usize, r as usize, &mut out, &mut shared);
+                }
+                out
+            })
+            .collect();
+        for p in parts {
+            let base = self.contour.items.len() as u32;
+            let ends = p.contour_ends.iter().map(|&e| base + e);
+            self.contour.offsets.extend(ends);
+            self.contour.items.extend_from_slice(&p.contour);
+            let base = self.boundary.items.len() as u32;
+            let ends = p.boundary_ends.iter().map(|&e| base + e);
+            self.boundary.offsets.extend(ends);
+            self.boundary.items.extend_from_slice(&p.boundary);
+            self.degree.extend_from_slice(&p.degree);
+            self.euler.extend_from_slice(&p.euler);
+            self.eligible.extend_from_slice(&p.eligible);
+        }
+    }
+
+    /// Appends the patch of the union of disjoint nodes `l` and `r` to `out`;
+    /// see [`union`].
+    fn union(&self, mesh: &Mesh, l: usize, r: usize, out: &mut PatchOut, shared: &mut Vec<u32>) {
+        let side = |n: usize| Side {
+            contour: self.contour.row(n),
+            boundary: self.boundary.row(n),
+            degree: &self.degree
+                [self.boundary.offsets[n] as usize..self.boundary.offsets[n + 1] as usize],
+        };
+        let (a, b) = (side(l), side(r));
+        let u = union(mesh, &a, &b, out, shared);
+        out.contour_ends.push(out.contour.len() as u32);
+        out.boundary_ends.push(out.boundary.len() as u32);
+        out.euler
+            .push(self.euler[l] + self.euler[r] - u.vertices as i32 + u.edges as i32);
+        out.eligible
+            .push(self.eligible[l] && self.eligible[r] && !u.conflict);
+    }
+
+    fn finish(mut self) -> Patches {
+        for c in [&mut self.contour, &mut self.boundary] {
+            c.offsets.shrink_to_fit();
+            c.items.shrink_to_fit();
+        }
+        Patches {
+            contour: self.contour,
+            boundary: self.boundary,
+            euler: self.euler,
+            eligible: self.eligible,
+        }
+    }
+}
+
+/// One child's patch lists.
+struct Side<'a> {
+    contour: &'a [u32],
+    boundary: &'a [u32],
+    degree: &'a [u32],
+}
+
+/// What a union shares between its two sides.
+struct Shared {
+    edges: u32,
+    vertices: u32,
+    conflict: bool,
+}
+
+/// Appends the contour, boundary and boundary degrees of the union of two
+/// disjoint patches to `out`, and says what they share.
+///
+/// The contour is the symmetric difference of the sorted contours. A vertex
+/// on the union's boundary is one with a contour edge left: its degree is
+/// `deg_a + deg_b - 2 s`, where `s` counts the shared edges at it (a shared
+/// edge leaves both contours). So the boundary is one merge of the sorted
+/// boundaries against the sorted ends of the (few) shared edges.
+fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32>) -> Shared {
+    ends.clear();
+    let info = merge_contours_with(a.contour, b.contour, &mut out.contour, |e| {
+        ends.extend(unpack(mesh, e))
+    });
+    ends.sort_unstable();
+    let (mut i, mut j, mut s, mut common) = (0, 0, 0, 0);
+    // Stored degrees are positive, so a vertex on one side only stays.
+    while i < a.boundary.len() && j < b.boundary.len() {
+        let (va, vb) = (a.boundary[i], b.boundary[j]);
+        if va < vb {
+            out.boundary.push(va);
+            out.degree.push(a.degree[i]);
+            i += 1;
+        } else if vb < va {
+            out.boundary.push(vb);
+            out.degree.push(b.degree[j]);
+            j += 1;
+        } else {
+            common += 1;
+            let mut d = a.degree[i] + b.degree[j];
+            while s < ends.len() && ends[s] < va {
+                s += 1;
+            }
+            while s < ends.len() && ends[s] == va {
+                d -= 2;
+                s += 1;
+            }
+            if d > 0 {
+                out.boundary.push(va);
+                out.degree.push(d);
+            }
+            i += 1;
+            j += 1;
+        }
+    }
+    for (side, k) in [(a, i), (b, j)] {
+        out.boundary.extend_from_slice(&side.boundary[k..]);
+        out.degree.extend_from_slice(&side.degree[k..]);
+    }
+    Shared {
+        edges: info.shared_edges,
+        vertices: common,
+        conflict: info.conflict,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{grid, Deformation};
+    use std::collections::BTreeMap;
+
+    /// A grid with holes, flipped triangles (winding conflicts), a fin and a
+    /// separate strip, so that every case of the patch merge is met.
+    fn mesh(seed: u64) -> Mesh {
+        let (mut v, mut f) = grid(12, 1.0);
+        let mut r = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = || {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r % 10
+        };
+        f = f
+            .into_iter()
+            .filter_map(|[a, b, c]| match next() {
+                0 => None,
+                1 => Some([a, c, b]),
+                _ => Some([a, b, c]),
+            })
+            .collect();
+        let [a, b, _] = f[3];
+        for z in [1.0, -1.0] {
+            v.push([0.5, 0.5, z]);
+            f.push([a, b, v.len() as u32 - 1]);
+        }
+        let s = v.len() as u32;
+        v.extend([
+            [0.0, 0.0, 5.0],
+            [1.0, 0.0, 5.0],
+            [0.0, 1.0, 5.0],
+            [1.0, 1.0, 5.0],
+        ]);
+        f.extend([[s, s + 1, s + 2], [s + 1, s + 3, s + 2]]);
+        Mesh::new(v, f).unwrap()
+    }
+
+    fn leaves_of(bvh: &Bvh, n: u32, out: &mut Vec<u32>) {
+        if bvh.is_leaf(n) {
+            out.push(n);
+        } else {
+            bvh.children_of(n)
+                .iter()
+                .for_each(|&c| leaves_of(bvh, c, out));
+        }
+    }
+
+    #[test]
+    fn patches_match_their_definition() {
+        for seed in 0..6 {
+            let m = mesh(seed);
+            let (topo, bad) = (m.topology(), m.nonmanifold_triangles());
+            let bvh = build(&m);
+            let p = &bvh.patches;
+            for n in 0..bvh.n_nodes() as u32 {
+                let mut tris = Vec::new();
+                leaves_of(&bvh, n, &mut tris);
+                // Directed edges of the patch by edge id.
+                let mut edges: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+                let mut verts: Vec<u32> = Vec::new();
+                for &t in &tris {
+                    let tri = m.triangles()[t as usize];
+                    for k in 0..3 {
+                        let e = topo.tri_edges[t as usize][k];
+                        edges
+                            .entry(e)
+                            .or_default()
+                            .push(pack(e, tri[k], tri[(k + 1) % 3]));
+                    }
+                    verts.extend(tri);
+                }
+                verts.sort_unstable();
+                verts.dedup();
+                let contour = p.contour_of(n);
+                let odd: Vec<u32> = edges
+                    .iter()
+                    .filter(|(_, d)| d.len() % 2 == 1)
+                    .map(|(&e, _)| e)
+                    .collect();
+                assert_eq!(contour.iter().map(|&e| e >> 1).collect::<Vec<_>>(), odd);
+                for &c in contour {
+                    let d = &edges[&(c >> 1)];
+                    assert!(d.len() > 1 || d[0] == c, "node {n}: direction of {c}");
+                }
+                let mut boundary: Vec<u32> = contour.iter().flat_map(|&e| unpack(&m, e)).collect();
+                boundary.sort_unstable();
+                boundary.dedup();
+                assert_eq!(p.boundary_of(n), &boundary[..], "node {n}");
+                let conflict = edges.values().any(|d| d.len() == 2 && d[0] == d[1]);
+                let eligible = !conflict && tris.iter().all(|&t| !bad[t as usize]);
+                assert_eq!(p.eligible[n as usize], eligible, "node {n}");
+                if eligible {
+                    let euler = verts.len() as i32 - edges.len() as i32 + tris.len() as i32;
+                    assert_eq!(p.euler[n as usize], euler, "node {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn built_boxes_and_cones_are_a_refit_at_rest() {
+        let m = mesh(1);
+        let bvh = build(&m);
+        let mut refitted = bvh.clone();
+        let p = Deformation::Crumple {
+            amplitude: 0.3,
+            wavelength: 0.5,
+            seed: 3,
+        }
+        .apply(m.rest());
+        refitted.refit(&m, &p);
+        refitted.refit(&m, m.rest());
+        assert_eq!(bvh.boxes, refitted.boxes);
+        assert_eq!(bvh.cones, refitted.cones);
+    }
 }

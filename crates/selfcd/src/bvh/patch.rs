@@ -76,6 +76,18 @@ pub struct MergeInfo {
 /// their sorted contours, written to `out`.
 pub fn merge_contours(a: &[u32], b: &[u32], out: &mut Vec<u32>) -> MergeInfo {
     out.clear();
+    merge_contours_with(a, b, out, |_| {})
+}
+
+/// [`merge_contours`] appending to `out` (not clearing it), and calling
+/// `on_shared` with each shared edge (as packed in `a`).
+#[inline]
+pub fn merge_contours_with(
+    a: &[u32],
+    b: &[u32],
+    out: &mut Vec<u32>,
+    mut on_shared: impl FnMut(u32),
+) -> MergeInfo {
     let mut info = MergeInfo::default();
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
@@ -89,6 +101,7 @@ pub fn merge_contours(a: &[u32], b: &[u32], out: &mut Vec<u32>) -> MergeInfo {
         } else {
             info.shared_edges += 1;
             info.conflict |= a[i] == b[j];
+            on_shared(a[i]);
             i += 1;
             j += 1;
         }

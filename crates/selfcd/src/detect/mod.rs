@@ -174,7 +174,15 @@ pub fn new_detector(
 }
 
 /// One-shot exact query: all intersecting non-adjacent triangle pairs of a mesh.
+///
+/// The hierarchy is built with its boxes and cones fitted to the rest shape,
+/// so it is refitted only when `positions` differ from it (a mesh checked at
+/// its own vertices, the usual one-shot, needs no refit).
 pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[u32; 2]>> {
+    mesh.check_positions(positions)?;
     let mut d = hierarchy::BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
-    Ok(d.detect(positions)?.pairs)
+    if positions != mesh.rest() {
+        d.refit(positions);
+    }
+    Ok(d.traverse(positions)?.pairs)
 }
