@@ -385,7 +385,10 @@ fn gate_row(mesh: &Arc<Mesh>, frames: impl Iterator<Item = Vec<DVec3>>) -> Row {
         let got = gated.detect(&shape).unwrap();
         let tg = t0.elapsed().as_secs_f64();
         let (missed, spurious) = diff_sorted(&want.pairs, &got.pairs);
-        assert_eq!(spurious, 0, "the gate reported a pair the exact method did not");
+        assert_eq!(
+            spurious, 0,
+            "the gate reported a pair the exact method did not"
+        );
         let trig = got.stats.triggered == Some(true);
         row.frames += 1;
         row.contact_frames += !want.pairs.is_empty() as usize;
@@ -410,9 +413,9 @@ fn counts(p: &[usize]) -> String {
 }
 
 fn print_row(mesh: &str, tris: usize, anim: &str, r: &Row) {
-    let cost = r
-        .quiet_cost()
-        .map_or("- (no quiet frame)".into(), |c| format!("{:.1}%", 100.0 * c));
+    let cost = r.quiet_cost().map_or("- (no quiet frame)".into(), |c| {
+        format!("{:.1}%", 100.0 * c)
+    });
     println!(
         "| {mesh} | {tris} | {anim} | {} | {} | {} | {} | {} | {cost} | {:.1}% | {:.1} | {} |",
         r.frames,
@@ -463,7 +466,8 @@ fn table(args: &[String]) {
     let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
     let data = arg_value(args, "--data").unwrap_or("/work/shared/data");
     let only = arg_value(args, "--only");
-    let keep = |name: &str| only.is_none_or(|o| name.contains(o));
+    // `--only a,b`: rows whose mesh name contains a or b.
+    let keep = |name: &str| only.is_none_or(|o| o.split(',').any(|w| name.contains(w)));
     let mut meshes: Vec<(String, Arc<Mesh>)> = vec![
         ("flat cloth 21x21".into(), grid(21, 1.0)),
         ("tube 24x25".into(), tube(24, 25, 0.12, 1.0)),
@@ -472,7 +476,12 @@ fn table(args: &[String]) {
     .into_iter()
     .map(|(n, (v, f))| (n, Arc::new(Mesh::new(v, f).unwrap())))
     .collect();
-    for name in ["body", "dress_on_body", "multilayer_skirt_on_body", "skirt_32k"] {
+    for name in [
+        "body",
+        "dress_on_body",
+        "multilayer_skirt_on_body",
+        "skirt_32k",
+    ] {
         if keep(name) {
             let (v, f) = obj::read_obj(&format!("{data}/{name}.obj"));
             meshes.push((name.into(), Arc::new(Mesh::new(v, f).unwrap())));
@@ -483,12 +492,12 @@ fn table(args: &[String]) {
     for (name, mesh) in meshes.iter().filter(|(n, _)| keep(n)) {
         let n = mesh.n_triangles();
         for (anim, shape) in table_anims() {
-            let shapes =
-                (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+            let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
             print_row(name, n, anim, &gate_row(mesh, shapes));
         }
         if name.starts_with("sphere") {
-            let shapes = (0..frames).map(|f| pinch(mesh.rest(), 1.6 * f as f64 / (frames - 1) as f64));
+            let shapes =
+                (0..frames).map(|f| pinch(mesh.rest(), 1.6 * f as f64 / (frames - 1) as f64));
             print_row(name, n, "squeeze until it folds", &gate_row(mesh, shapes));
         }
     }
@@ -502,7 +511,12 @@ fn table(args: &[String]) {
             }
             let mesh = sim.cloth().mesh().clone();
             let row = gate_row(&mesh, shapes.into_iter());
-            print_row(&format!("paper {scene}"), mesh.n_triangles(), "simulated, 300 steps", &row);
+            print_row(
+                &format!("paper {scene}"),
+                mesh.n_triangles(),
+                "simulated, 300 steps",
+                &row,
+            );
         }
     }
 }

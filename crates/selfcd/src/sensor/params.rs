@@ -68,7 +68,7 @@ impl Default for SensorParams {
     fn default() -> Self {
         SensorParams {
             count: 4,
-            max_count: 32,
+            max_count: 256,
             a: 20.0,
             b: 10.0,
             n_min: 1,
