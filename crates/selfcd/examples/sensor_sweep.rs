@@ -13,7 +13,8 @@
 //!
 //! ```text
 //! cargo run --release -p selfcd --example sensor_sweep [-- [--big] [--count K] | --sweep [--fine]]
-//! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--data DIR] [--only NAME]
+//! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--settle N] [--data DIR] [--only NAME,...]
+//! cargo run --release -p selfcd --example sensor_sweep -- --sweep-gate
 //! ```
 
 #[path = "common/obj.rs"]
@@ -310,6 +311,14 @@ fn main() {
         table(&args);
         return;
     }
+    if args.iter().any(|a| a == "--crumple") {
+        crumple(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--sweep-gate") {
+        sweep_gate();
+        return;
+    }
     let sides: &[usize] = if args.iter().any(|a| a == "--big") {
         &[11, 101]
     } else {
@@ -349,6 +358,7 @@ struct Row {
     triggered: usize,
     contacts: u64,
     missed: u64,
+    triggered_quiet: usize,
     /// (gated seconds, exact seconds) of every frame the gate did not trigger on.
     quiet: Vec<(f64, f64)>,
     /// (sensor seconds, exact seconds) summed over every frame.
@@ -371,12 +381,32 @@ impl Row {
 /// Runs `bvh-cones-contour` (the reference) and `sensor-gated` on every frame,
 /// back to back, and counts what the gate missed.
 fn gate_row(mesh: &Arc<Mesh>, frames: impl Iterator<Item = Vec<DVec3>>) -> Row {
+    gate_row_with(mesh, frames, &SensorParams::default())
+}
+
+/// [`gate_row`] with the given sensor parameters.
+fn gate_row_with(
+    mesh: &Arc<Mesh>,
+    frames: impl Iterator<Item = Vec<DVec3>>,
+    params: &SensorParams,
+) -> Row {
     use selfcd::detect::compare::diff_sorted;
     use std::time::Instant;
-    let opts = DetectorOptions::default();
+    let opts = DetectorOptions {
+        sensor: params.clone(),
+        ..Default::default()
+    };
     let mut exact = selfcd::new_detector(mesh.clone(), Method::BvhConesContour, &opts).unwrap();
     let mut gated = selfcd::new_detector(mesh.clone(), Method::SensorGated, &opts).unwrap();
     let mut row = Row::default();
+    let mut frames = frames.peekable();
+    // `--settle N`: N frames of the first shape first, not counted (particles settled).
+    if let Some(first) = frames.peek() {
+        for _ in 0..settle_frames() {
+            exact.detect(first).unwrap();
+            gated.detect(first).unwrap();
+        }
+    }
     for shape in frames {
         let t0 = Instant::now();
         let want = exact.detect(&shape).unwrap();
@@ -393,6 +423,7 @@ fn gate_row(mesh: &Arc<Mesh>, frames: impl Iterator<Item = Vec<DVec3>>) -> Row {
         row.frames += 1;
         row.contact_frames += !want.pairs.is_empty() as usize;
         row.triggered += trig as usize;
+        row.triggered_quiet += (trig && want.pairs.is_empty()) as usize;
         row.contacts += want.pairs.len() as u64;
         row.missed += missed;
         if !trig {
@@ -432,6 +463,7 @@ fn print_row(mesh: &str, tris: usize, anim: &str, r: &Row) {
 /// The animations of the table, at time s in [0, 1].
 fn table_anims() -> Vec<(&'static str, fn(f64, &[DVec3]) -> Vec<DVec3>)> {
     vec![
+        ("rest (static)", |_, r| r.to_vec()),
         ("fold", |s, r| fold(1.25 * PI * s, 0.05, 0.0, r)),
         ("roll", |s, r| {
             Deformation::Roll {
@@ -453,6 +485,12 @@ fn table_anims() -> Vec<(&'static str, fn(f64, &[DVec3]) -> Vec<DVec3>)> {
             .apply(r)
         }),
     ]
+}
+
+/// The `--settle N` argument (0 without it).
+fn settle_frames() -> usize {
+    let args: Vec<String> = std::env::args().collect();
+    arg_value(&args, "--settle").map_or(0, |s| s.parse().unwrap())
 }
 
 fn arg_value<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
@@ -518,5 +556,64 @@ fn table(args: &[String]) {
                 &row,
             );
         }
+    }
+}
+
+/// `--sweep-gate`: the gated detector (particles following the parts) over
+/// flat cloth at 200 and 800 triangles, the tube and the sphere under every
+/// animation of the table, for force scale {1/4, 1, 4} x a/b {1, 2, 4} x
+/// tolerance {2, 3, 4} (mean edges). One line per setting: frames triggered
+/// without contacts, contacts missed, mean updates per frame.
+fn sweep_gate() {
+    use selfcd::scene::{sphere, tube};
+    let meshes: Vec<Arc<Mesh>> = [grid(11, 1.0), grid(21, 1.0), tube(24, 25, 0.12, 1.0), sphere(13, 20, 0.5)]
+        .into_iter()
+        .map(|(v, f)| Arc::new(Mesh::new(v, f).unwrap()))
+        .collect();
+    let frames = 40;
+    for scale in [0.25, 1.0, 4.0] {
+        for ratio in [1.0, 2.0, 4.0] {
+            for tolerance in [2.0, 3.0, 4.0] {
+                let p = SensorParams {
+                    a: 10.0 * ratio * scale,
+                    b: 10.0 * scale,
+                    tolerance,
+                    ..Default::default()
+                };
+                let (mut quiet_trig, mut missed, mut steps, mut n) = (0, 0, 0u64, 0);
+                for mesh in &meshes {
+                    for (_, shape) in table_anims() {
+                        let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+                        let r = gate_row_with(mesh, shapes, &p);
+                        quiet_trig += r.triggered_quiet;
+                        missed += r.missed;
+                        steps += r.steps;
+                        n += r.frames;
+                    }
+                }
+                println!(
+                    "a {:>5} b {:>5} tol {tolerance}: triggered without contacts {quiet_trig:>4} missed {missed:>6} updates/frame {:.2}",
+                    p.a, p.b, steps as f64 / n as f64
+                );
+            }
+        }
+    }
+}
+
+/// `--crumple [--sides 11,101,708]`: the crumple on square grids (200, 20k and
+/// 1M triangles by default), one table row each.
+fn crumple(args: &[String]) {
+    let sides: Vec<usize> = arg_value(args, "--sides")
+        .unwrap_or("11,101,708")
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
+    let (_, shape) = table_anims().pop().unwrap();
+    for side in sides {
+        let (v, f) = grid(side, 1.0);
+        let mesh = Arc::new(Mesh::new(v, f).unwrap());
+        let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+        print_row(&format!("flat {side}x{side}"), mesh.n_triangles(), "crumple", &gate_row(&mesh, shapes));
     }
 }
