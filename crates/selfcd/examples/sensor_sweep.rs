@@ -566,10 +566,15 @@ fn table(args: &[String]) {
 /// without contacts, contacts missed, mean updates per frame.
 fn sweep_gate() {
     use selfcd::scene::{sphere, tube};
-    let meshes: Vec<Arc<Mesh>> = [grid(11, 1.0), grid(21, 1.0), tube(24, 25, 0.12, 1.0), sphere(13, 20, 0.5)]
-        .into_iter()
-        .map(|(v, f)| Arc::new(Mesh::new(v, f).unwrap()))
-        .collect();
+    let meshes: Vec<Arc<Mesh>> = [
+        grid(11, 1.0),
+        grid(21, 1.0),
+        tube(24, 25, 0.12, 1.0),
+        sphere(13, 20, 0.5),
+    ]
+    .into_iter()
+    .map(|(v, f)| Arc::new(Mesh::new(v, f).unwrap()))
+    .collect();
     let frames = 40;
     for scale in [0.25, 1.0, 4.0] {
         for ratio in [1.0, 2.0, 4.0] {
@@ -583,7 +588,8 @@ fn sweep_gate() {
                 let (mut quiet_trig, mut missed, mut steps, mut n) = (0, 0, 0u64, 0);
                 for mesh in &meshes {
                     for (_, shape) in table_anims() {
-                        let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+                        let shapes =
+                            (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
                         let r = gate_row_with(mesh, shapes, &p);
                         quiet_trig += r.triggered_quiet;
                         missed += r.missed;
@@ -614,6 +620,11 @@ fn crumple(args: &[String]) {
         let (v, f) = grid(side, 1.0);
         let mesh = Arc::new(Mesh::new(v, f).unwrap());
         let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
-        print_row(&format!("flat {side}x{side}"), mesh.n_triangles(), "crumple", &gate_row(&mesh, shapes));
+        print_row(
+            &format!("flat {side}x{side}"),
+            mesh.n_triangles(),
+            "crumple",
+            &gate_row(&mesh, shapes),
+        );
     }
 }
