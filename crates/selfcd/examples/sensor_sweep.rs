@@ -460,8 +460,11 @@ fn print_row(mesh: &str, tris: usize, anim: &str, r: &Row) {
     );
 }
 
+/// A shape of a rest mesh at time s in [0, 1].
+type ShapeAt = fn(f64, &[DVec3]) -> Vec<DVec3>;
+
 /// The animations of the table, at time s in [0, 1].
-fn table_anims() -> Vec<(&'static str, fn(f64, &[DVec3]) -> Vec<DVec3>)> {
+fn table_anims() -> Vec<(&'static str, ShapeAt)> {
     vec![
         ("rest (static)", |_, r| r.to_vec()),
         ("fold", |s, r| fold(1.25 * PI * s, 0.05, 0.0, r)),
