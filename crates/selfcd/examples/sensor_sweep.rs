@@ -511,6 +511,7 @@ fn table(args: &[String]) {
     let keep = |name: &str| only.is_none_or(|o| o.split(',').any(|w| name.contains(w)));
     let mut meshes: Vec<(String, Arc<Mesh>)> = vec![
         ("flat cloth 21x21".into(), grid(21, 1.0)),
+        ("flat cloth 101x101".into(), grid(101, 1.0)),
         ("tube 24x25".into(), tube(24, 25, 0.12, 1.0)),
         ("sphere 13x20".into(), sphere(13, 20, 0.5)),
     ]

@@ -6,10 +6,11 @@
 //!
 //! The particle count follows the convex parts of the current shape
 //! ([`crate::sensor::parts`]): every [`RECOUNT`] frames, and on every
-//! triggered frame (whose refit is paid anyway), the parts are read from the
-//! refitted cones and [`Sensor::follow_parts`] adds particles where parts
-//! appeared and merges them where parts vanished, towards the number of parts
-//! clamped to [`count`, `max_count`].
+//! triggered frame (whose refit is paid anyway), the parts are counted from the
+//! refitted cones; when the count (clamped to [`count`, [`max_particles`]])
+//! differs from the particles', [`Sensor::follow_parts`] adds particles where
+//! parts appeared and merges them where parts vanished. Otherwise the
+//! particles persist as they are.
 
 use super::hierarchy::BvhDetector;
 use super::{Detection, Detector, Method};
@@ -86,10 +87,15 @@ impl SensorGatedDetector {
         &self.sensor
     }
 
-    /// Reads the parts of the shape the BVH was just refitted to and follows them.
+    /// Reads the parts of the shape the BVH was just refitted to and follows
+    /// them. Counting the parts visits only the nodes above them; the O(n)
+    /// labelling runs only when the count asks for particles to be added or merged.
     fn follow_parts(&mut self, positions: &[DVec3]) {
+        let target = convex_parts(self.bvh.bvh()).clamp(self.bounds.0, self.bounds.1);
+        if target == self.sensor.points().len() {
+            return;
+        }
         let parts = Parts::new(self.bvh.bvh(), self.bvh.mesh(), positions);
-        let target = parts.len().clamp(self.bounds.0, self.bounds.1);
         self.sensor.follow_parts(&parts, target);
     }
 }
