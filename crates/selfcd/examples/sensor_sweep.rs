@@ -3,9 +3,22 @@
 //! reference; with `--sweep`, repeats that over a grid of sensor parameters
 //! (this is how the defaults in `sensor/params.rs` were chosen).
 //!
+//! With `--table`, prints the per-mesh table of issue 12 (BENCHMARKS.md,
+//! "Particle sensor on any surface"): flat cloth, tube, sphere and the meshes
+//! of /work/shared/data under fold, roll, twist, bend and crumple, the sphere
+//! squeezed until it folds and the three simulated paper scenes. Per row: frames
+//! triggered, contacts missed against the exact reference (`diff_sorted`
+//! against `bvh-cones-contour` on the same frame), quiet-frame cost against the
+//! exact method (both run on the same frame, back to back), particle counts.
+//!
 //! ```text
 //! cargo run --release -p selfcd --example sensor_sweep [-- [--big] [--count K] | --sweep [--fine]]
+//! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--settle N] [--data DIR] [--only NAME,...]
+//! cargo run --release -p selfcd --example sensor_sweep -- --sweep-gate
 //! ```
+
+#[path = "common/obj.rs"]
+mod obj;
 
 use glam::DQuat;
 use selfcd::detect::compare::{compare_methods, reference_pairs, MethodRun};
@@ -294,6 +307,18 @@ fn sweep_line(mesh: &Arc<Mesh>, data: &[(Vec<Vec<DVec3>>, Vec<usize>)], p: &Sens
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--table") {
+        table(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--crumple") {
+        crumple(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--sweep-gate") {
+        sweep_gate();
+        return;
+    }
     let sides: &[usize] = if args.iter().any(|a| a == "--big") {
         &[11, 101]
     } else {
@@ -320,5 +345,290 @@ fn main() {
             };
             report(&mesh, frames, &p, &format!("defaults, k {}", p.count));
         }
+    }
+}
+
+// ---- The table of issue 12 (`--table`) ----
+
+/// One row of the table: what the gate did over one animation.
+#[derive(Default)]
+struct Row {
+    frames: usize,
+    contact_frames: usize,
+    triggered: usize,
+    contacts: u64,
+    missed: u64,
+    triggered_quiet: usize,
+    /// (gated seconds, exact seconds) of every frame the gate did not trigger on.
+    quiet: Vec<(f64, f64)>,
+    /// (sensor seconds, exact seconds) summed over every frame.
+    sensor: (f64, f64),
+    steps: u64,
+    particles: Vec<usize>,
+}
+
+impl Row {
+    /// sum(gated) / sum(exact) over the untriggered frames (the quiet-frame cost).
+    fn quiet_cost(&self) -> Option<f64> {
+        let (g, e) = self
+            .quiet
+            .iter()
+            .fold((0.0, 0.0), |(g, e), &(a, b)| (g + a, e + b));
+        (!self.quiet.is_empty()).then(|| g / e)
+    }
+}
+
+/// Runs `bvh-cones-contour` (the reference) and `sensor-gated` on every frame,
+/// back to back, and counts what the gate missed.
+fn gate_row(mesh: &Arc<Mesh>, frames: impl Iterator<Item = Vec<DVec3>>) -> Row {
+    gate_row_with(mesh, frames, &SensorParams::default())
+}
+
+/// [`gate_row`] with the given sensor parameters.
+fn gate_row_with(
+    mesh: &Arc<Mesh>,
+    frames: impl Iterator<Item = Vec<DVec3>>,
+    params: &SensorParams,
+) -> Row {
+    use selfcd::detect::compare::diff_sorted;
+    use std::time::Instant;
+    let opts = DetectorOptions {
+        sensor: params.clone(),
+        ..Default::default()
+    };
+    let mut exact = selfcd::new_detector(mesh.clone(), Method::BvhConesContour, &opts).unwrap();
+    let mut gated = selfcd::new_detector(mesh.clone(), Method::SensorGated, &opts).unwrap();
+    let mut row = Row::default();
+    let mut frames = frames.peekable();
+    // `--settle N`: N frames of the first shape first, not counted (particles settled).
+    if let Some(first) = frames.peek() {
+        for _ in 0..settle_frames() {
+            exact.detect(first).unwrap();
+            gated.detect(first).unwrap();
+        }
+    }
+    for shape in frames {
+        let t0 = Instant::now();
+        let want = exact.detect(&shape).unwrap();
+        let te = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let got = gated.detect(&shape).unwrap();
+        let tg = t0.elapsed().as_secs_f64();
+        let (missed, spurious) = diff_sorted(&want.pairs, &got.pairs);
+        assert_eq!(
+            spurious, 0,
+            "the gate reported a pair the exact method did not"
+        );
+        let trig = got.stats.triggered == Some(true);
+        row.frames += 1;
+        row.contact_frames += !want.pairs.is_empty() as usize;
+        row.triggered += trig as usize;
+        row.triggered_quiet += (trig && want.pairs.is_empty()) as usize;
+        row.contacts += want.pairs.len() as u64;
+        row.missed += missed;
+        if !trig {
+            row.quiet.push((tg, te));
+        }
+        row.sensor.0 += got.stats.sensor_time;
+        row.sensor.1 += te;
+        row.steps += got.stats.relax_steps as u64;
+        row.particles.push(gated.particles().len());
+    }
+    row
+}
+
+/// "first -> min..max -> last" of the particle counts.
+fn counts(p: &[usize]) -> String {
+    let (lo, hi) = (p.iter().min().unwrap(), p.iter().max().unwrap());
+    format!("{} -> {lo}..{hi} -> {}", p[0], p[p.len() - 1])
+}
+
+fn print_row(mesh: &str, tris: usize, anim: &str, r: &Row) {
+    let cost = r.quiet_cost().map_or("- (no quiet frame)".into(), |c| {
+        format!("{:.1}%", 100.0 * c)
+    });
+    println!(
+        "| {mesh} | {tris} | {anim} | {} | {} | {} | {} | {} | {cost} | {:.1}% | {:.1} | {} |",
+        r.frames,
+        r.contact_frames,
+        r.triggered,
+        r.contacts,
+        r.missed,
+        100.0 * r.sensor.0 / r.sensor.1,
+        r.steps as f64 / r.frames as f64,
+        counts(&r.particles)
+    );
+}
+
+/// A shape of a rest mesh at time s in [0, 1].
+type ShapeAt = fn(f64, &[DVec3]) -> Vec<DVec3>;
+
+/// The animations of the table, at time s in [0, 1].
+fn table_anims() -> Vec<(&'static str, ShapeAt)> {
+    vec![
+        ("rest (static)", |_, r| r.to_vec()),
+        ("fold", |s, r| fold(1.25 * PI * s, 0.05, 0.0, r)),
+        ("roll", |s, r| {
+            Deformation::Roll {
+                turns: 1.5 * s,
+                gap: 0.05,
+            }
+            .apply(r)
+        }),
+        ("twist", |s, r| {
+            Deformation::Twist { turns: 1.5 * s }.apply(r)
+        }),
+        ("bend", |s, r| fold(1.9 * PI * s, 0.12, 0.0, r)),
+        ("crumple", |s, r| {
+            Deformation::Crumple {
+                amplitude: 0.3 * s,
+                wavelength: 0.4,
+                seed: 1,
+            }
+            .apply(r)
+        }),
+    ]
+}
+
+/// The `--settle N` argument (0 without it).
+fn settle_frames() -> usize {
+    let args: Vec<String> = std::env::args().collect();
+    arg_value(&args, "--settle").map_or(0, |s| s.parse().unwrap())
+}
+
+fn arg_value<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    let i = args.iter().position(|a| a == name)?;
+    args.get(i + 1).map(|s| s.as_str())
+}
+
+fn table(args: &[String]) {
+    use selfcd::cloth::scenes::PaperScene;
+    use selfcd::scene::{pinch, sphere, tube};
+    let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
+    let data = arg_value(args, "--data").unwrap_or("/work/shared/data");
+    let only = arg_value(args, "--only");
+    // `--only a,b`: rows whose mesh name contains a or b.
+    let keep = |name: &str| only.is_none_or(|o| o.split(',').any(|w| name.contains(w)));
+    let mut meshes: Vec<(String, Arc<Mesh>)> = vec![
+        ("flat cloth 21x21".into(), grid(21, 1.0)),
+        ("flat cloth 101x101".into(), grid(101, 1.0)),
+        ("tube 24x25".into(), tube(24, 25, 0.12, 1.0)),
+        ("sphere 13x20".into(), sphere(13, 20, 0.5)),
+    ]
+    .into_iter()
+    .map(|(n, (v, f))| (n, Arc::new(Mesh::new(v, f).unwrap())))
+    .collect();
+    for name in [
+        "body",
+        "dress_on_body",
+        "multilayer_skirt_on_body",
+        "skirt_32k",
+    ] {
+        if keep(name) {
+            let (v, f) = obj::read_obj(&format!("{data}/{name}.obj"));
+            meshes.push((name.into(), Arc::new(Mesh::new(v, f).unwrap())));
+        }
+    }
+    println!("| mesh | triangles | animation | frames | frames with contacts | frames triggered | contacts (exact) | contacts missed | quiet-frame cost / exact | sensor / exact, all frames | updates per frame | particles (first -> min..max -> last) |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    for (name, mesh) in meshes.iter().filter(|(n, _)| keep(n)) {
+        let n = mesh.n_triangles();
+        for (anim, shape) in table_anims() {
+            let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+            print_row(name, n, anim, &gate_row(mesh, shapes));
+        }
+        if name.starts_with("sphere") {
+            let shapes =
+                (0..frames).map(|f| pinch(mesh.rest(), 1.6 * f as f64 / (frames - 1) as f64));
+            print_row(name, n, "squeeze until it folds", &gate_row(mesh, shapes));
+        }
+    }
+    if keep("paper") {
+        for scene in PaperScene::ALL {
+            let mut sim = scene.simulation(21, Method::BvhConesContour).unwrap();
+            let mut shapes = Vec::with_capacity(300);
+            for _ in 0..300 {
+                sim.step().unwrap();
+                shapes.push(sim.positions().to_vec());
+            }
+            let mesh = sim.cloth().mesh().clone();
+            let row = gate_row(&mesh, shapes.into_iter());
+            print_row(
+                &format!("paper {scene}"),
+                mesh.n_triangles(),
+                "simulated, 300 steps",
+                &row,
+            );
+        }
+    }
+}
+
+/// `--sweep-gate`: the gated detector (particles following the parts) over
+/// flat cloth at 200 and 800 triangles, the tube and the sphere under every
+/// animation of the table, for force scale {1/4, 1, 4} x a/b {1, 2, 4} x
+/// tolerance {2, 3, 4} (mean edges). One line per setting: frames triggered
+/// without contacts, contacts missed, mean updates per frame.
+fn sweep_gate() {
+    use selfcd::scene::{sphere, tube};
+    let meshes: Vec<Arc<Mesh>> = [
+        grid(11, 1.0),
+        grid(21, 1.0),
+        tube(24, 25, 0.12, 1.0),
+        sphere(13, 20, 0.5),
+    ]
+    .into_iter()
+    .map(|(v, f)| Arc::new(Mesh::new(v, f).unwrap()))
+    .collect();
+    let frames = 40;
+    for scale in [0.25, 1.0, 4.0] {
+        for ratio in [1.0, 2.0, 4.0] {
+            for tolerance in [2.0, 3.0, 4.0] {
+                let p = SensorParams {
+                    a: 10.0 * ratio * scale,
+                    b: 10.0 * scale,
+                    tolerance,
+                    ..Default::default()
+                };
+                let (mut quiet_trig, mut missed, mut steps, mut n) = (0, 0, 0u64, 0);
+                for mesh in &meshes {
+                    for (_, shape) in table_anims() {
+                        let shapes =
+                            (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+                        let r = gate_row_with(mesh, shapes, &p);
+                        quiet_trig += r.triggered_quiet;
+                        missed += r.missed;
+                        steps += r.steps;
+                        n += r.frames;
+                    }
+                }
+                println!(
+                    "a {:>5} b {:>5} tol {tolerance}: triggered without contacts {quiet_trig:>4} missed {missed:>6} updates/frame {:.2}",
+                    p.a, p.b, steps as f64 / n as f64
+                );
+            }
+        }
+    }
+}
+
+/// `--crumple [--sides 11,101,708]`: the crumple on square grids (200, 20k and
+/// 1M triangles by default), one table row each.
+fn crumple(args: &[String]) {
+    let sides: Vec<usize> = arg_value(args, "--sides")
+        .unwrap_or("11,101,708")
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
+    let (_, shape) = table_anims().pop().unwrap();
+    for side in sides {
+        let (v, f) = grid(side, 1.0);
+        let mesh = Arc::new(Mesh::new(v, f).unwrap());
+        let shapes = (0..frames).map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()));
+        print_row(
+            &format!("flat {side}x{side}"),
+            mesh.n_triangles(),
+            "crumple",
+            &gate_row(&mesh, shapes),
+        );
     }
 }

@@ -21,7 +21,7 @@ use glam::DVec3;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-/// Reusable buffers of [`distance_field`].
+/// Reusable buffers of [`Marcher::distance_field`].
 #[derive(Debug, Clone, Default)]
 pub struct Marcher {
     accepted: Vec<bool>,

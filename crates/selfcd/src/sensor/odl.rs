@@ -38,7 +38,7 @@ use std::sync::Arc;
 /// Largest distance from the plane, relative to the rest bounding-box diagonal, that still counts as flat.
 pub const FLAT_TOLERANCE: f64 = 1e-6;
 /// A particle's geodesic field is recomputed once it is this far (mean edges, rest space) from the field's source.
-pub const REFRESH: f64 = 0.05;
+pub const REFRESH: f64 = 0.5;
 /// Below this ODL (mean edges) the chord replaces the geodesic field.
 pub const NEAR: f64 = 2.0;
 /// Reach of a geodesic field (mean edges).
@@ -92,6 +92,10 @@ pub struct Path {
     pub length: f64,
     /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest shape).
     pub chord: f64,
+    /// A lower bound of ro: `length` less the field's interpolation error (the
+    /// longest rest edge of the first particle's triangle: a linearly
+    /// interpolated distance overestimates by at most that), never below the chord.
+    pub lower: f64,
     /// Rest-space direction at the first particle towards the second (in its
     /// triangle's plane up to the chord case); zero between components or when undefined.
     pub direction: DVec3,
@@ -178,6 +182,12 @@ impl OriginalDistance {
         }
     }
 
+    /// Keeps the fields of the particles with `keep[i]` true (particles were removed).
+    pub fn retain(&mut self, keep: &[bool]) {
+        let mut k = keep.iter();
+        self.fields.retain(|_| *k.next().unwrap_or(&true));
+    }
+
     /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
     pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
         let (pi, pj) = (&points[i], &points[j]);
@@ -185,6 +195,7 @@ impl OriginalDistance {
             return Path {
                 length: f64::INFINITY,
                 chord: f64::INFINITY,
+                lower: f64::INFINITY,
                 direction: DVec3::ZERO,
             };
         }
@@ -192,6 +203,7 @@ impl OriginalDistance {
         let straight = Path {
             length: chord.length(),
             chord: chord.length(),
+            lower: chord.length(),
             direction: chord,
         };
         let field = match self.fields.get(j) {
@@ -203,6 +215,7 @@ impl OriginalDistance {
         if along.is_infinite() {
             return Path {
                 length: straight.length.max(CUT),
+                lower: straight.length.max(CUT),
                 ..straight
             };
         }
@@ -214,8 +227,11 @@ impl OriginalDistance {
             .map(|(d1, d2)| -(d1 * (corners[1] - corners[0]) + d2 * (corners[2] - corners[0])))
             .filter(|g| g.length_squared() > 0.0 && g.is_finite())
             .unwrap_or(chord);
+        let [a, b, c] = self.mesh.triangles()[pi.tri as usize].map(|v| self.rest[v as usize]);
+        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
         Path {
             length: along,
+            lower: (along - longest).max(straight.length),
             direction,
             ..straight
         }

@@ -34,10 +34,11 @@ pub const MAX_UPDATES: u32 = 10_000;
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorParams {
     /// Least number of particles k (the paper's 4 for its square cloth). `sensor-gated`
-    /// uses the number of convex parts of the rest shape ([`super::parts`]) clamped
-    /// to [`count`, `max_count`]; [`super::Sensor::new`] uses `count` as given.
+    /// follows the number of convex parts of the current shape ([`super::parts`])
+    /// clamped to [`count`, [`crate::detect::sensor_gated::max_particles`]] (itself
+    /// clamped to [`count`, `max_count`]); [`super::Sensor::new`] uses `count` as given.
     pub count: usize,
-    /// Most particles `sensor-gated` places (each costs O(k) per update).
+    /// Most particles `sensor-gated` ever places (each costs O(k) per update).
     pub max_count: usize,
     /// Attraction constant a in fa(r) = a / r^2 (paper: 20).
     pub a: f64,
@@ -68,7 +69,7 @@ impl Default for SensorParams {
     fn default() -> Self {
         SensorParams {
             count: 4,
-            max_count: 32,
+            max_count: 256,
             a: 20.0,
             b: 10.0,
             n_min: 1,

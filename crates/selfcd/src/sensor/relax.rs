@@ -14,6 +14,7 @@ use super::forces::{forces, Local};
 use super::odl::OriginalDistance;
 use super::params::SensorParams;
 use super::particle::SurfacePoint;
+use super::parts::Parts;
 use super::place::{place, share};
 use super::units::{normalised, to_frame};
 use super::walk;
@@ -39,6 +40,8 @@ pub struct Sensor {
     margin: f64,
     locals: Vec<Local>,
     forces: Vec<DVec3>,
+    /// Per particle step control (see [`Sensor::update`]); persistent across frames.
+    damping: Vec<Damping>,
 }
 
 /// The closest particle pair by straight-line distance; distances in mean-edge units.
@@ -62,6 +65,55 @@ pub struct ClosestPair {
 /// two points together has t -> 1; 1/4 leaves margin for the geodesic's error
 /// and for curved rest shapes, where the chord is shorter than the geodesic.
 pub const FOLD_T: f64 = 0.25;
+
+/// Least step scale of a particle (see [`Sensor::update`]): 1/64 of the step.
+pub const MIN_SCALE: f64 = 1.0 / 64.0;
+
+/// A step within 30 degrees of the last one is steady (cos 30 degrees).
+pub const STEADY_COS: f64 = 0.866;
+
+/// Step control of one particle: its step is the clamped force step times
+/// `scale`. After each update the scale doubles (up to 1) when the step was
+/// steady (within 30 degrees of the last) and the particle went at least half
+/// as far as asked: it follows a pull, a fold or the spreading of a bunch.
+/// Otherwise it halves (down to [`MIN_SCALE`]): the particle overshot an
+/// equilibrium, circles (on curved rest shapes the field-gradient directions
+/// jump between triangles), or is pushed against a boundary it slides along.
+/// So particles come to rest on a quiet shape, and a quiet frame makes one
+/// update and no geodesic field.
+#[derive(Debug, Clone, Copy)]
+struct Damping {
+    /// The last unclamped step (current space, mean-edge units).
+    last: DVec3,
+    /// Step scale in [`MIN_SCALE`, 1].
+    scale: f64,
+    /// Length of the last step asked for (mean-edge units).
+    asked: f64,
+    /// Whether the last step was steady.
+    steady: bool,
+}
+
+impl Default for Damping {
+    fn default() -> Self {
+        Damping {
+            last: DVec3::ZERO,
+            scale: 1.0,
+            asked: 0.0,
+            steady: false,
+        }
+    }
+}
+
+impl Damping {
+    /// Updates the scale after a step that moved the particle by `moved` (mean-edge units).
+    fn settle(&mut self, moved: f64) {
+        self.scale = if self.steady && moved >= 0.5 * self.asked {
+            (self.scale * 2.0).min(1.0)
+        } else {
+            (self.scale * 0.5).max(MIN_SCALE)
+        };
+    }
+}
 
 /// What one frame's relaxation did and decided.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -135,7 +187,59 @@ impl Sensor {
             margin: 0.0,
             locals: Vec::new(),
             forces: Vec::new(),
+            damping: Vec::new(),
         })
+    }
+
+    /// Follows the convex parts `parts` of the current shape (paper 2.1) with
+    /// persistent particles, towards `target` particles:
+    ///
+    /// - merge: while there are more particles than `target`, a particle whose
+    ///   part already holds an earlier particle is removed (merged into that
+    ///   one), never the last particle of its component;
+    /// - add: while there are fewer, a particle is placed at the anchor
+    ///   triangle of the largest part that holds none (ties: the lower part).
+    ///
+    /// Every other particle keeps its place and its geodesic field. Returns
+    /// (added, removed).
+    pub fn follow_parts(&mut self, parts: &Parts, target: usize) -> (usize, usize) {
+        let comp = self.odl.components().clone();
+        let n_comp = comp.iter().max().map_or(0, |&c| c as usize + 1);
+        let mut per_comp = vec![0usize; n_comp];
+        for p in &self.points {
+            per_comp[comp[p.tri as usize] as usize] += 1;
+        }
+        let excess = self.points.len().saturating_sub(target);
+        let mut held = vec![false; parts.len()];
+        let (mut keep, mut removed) = (Vec::with_capacity(self.points.len()), 0);
+        for p in &self.points {
+            let (part, c) = (
+                parts.of_triangle[p.tri as usize] as usize,
+                comp[p.tri as usize] as usize,
+            );
+            let merge = held[part] && removed < excess && per_comp[c] > 1;
+            removed += merge as usize;
+            per_comp[c] -= merge as usize;
+            held[part] = true;
+            keep.push(!merge);
+        }
+        if removed > 0 {
+            let mut k = keep.iter();
+            self.points.retain(|_| *k.next().unwrap_or(&true));
+            self.odl.retain(&keep);
+            let mut k = keep.iter();
+            self.damping.retain(|_| *k.next().unwrap_or(&true));
+        }
+        let mut empty: Vec<usize> = (0..parts.len()).filter(|&p| !held[p]).collect();
+        empty.sort_by_key(|&p| (std::cmp::Reverse(parts.size[p]), p));
+        let room = target.saturating_sub(self.points.len());
+        let added = empty.len().min(room);
+        self.points.extend(
+            empty[..added]
+                .iter()
+                .map(|&p| SurfacePoint::centroid(parts.anchor[p])),
+        );
+        (added, removed)
     }
 
     /// Adds `length` (metres, >= 0) to the trigger distance: the detector's proximity thickness.
@@ -184,10 +288,9 @@ impl Sensor {
 
     /// [`Sensor::relax`] for positions already checked by the caller.
     pub(crate) fn relax_checked(&mut self, positions: &[DVec3]) -> Relaxation {
-        self.load_frame(positions);
         let (mut steps, mut moving) = (0, 0);
         while steps < self.params.n_max {
-            moving = self.step();
+            moving = self.step(positions);
             steps += 1;
             if moving < self.params.n_min {
                 break;
@@ -202,22 +305,33 @@ impl Sensor {
         }
     }
 
-    /// Writes `positions` in the sensor's frame ([`super::units`]) into the buffer.
-    fn load_frame(&mut self, positions: &[DVec3]) {
+    /// Writes the corners of every particle's triangle, in the sensor's frame
+    /// ([`super::units`]), into the buffer: all the sensor reads of a shape, so
+    /// a frame costs O(particles), not O(vertices). Other entries are stale.
+    fn load_corners(&mut self, positions: &[DVec3]) {
         let (origin, unit) = (self.origin, self.unit);
-        self.scaled.clear();
-        self.scaled
-            .extend(positions.iter().map(|&p| to_frame(p, origin, unit)));
+        self.scaled.resize(positions.len(), DVec3::ZERO);
+        for p in &self.points {
+            for &c in &self.norm.triangles()[p.tri as usize] {
+                self.scaled[c as usize] = to_frame(positions[c as usize], origin, unit);
+            }
+        }
     }
 
-    /// One update of every particle from the same snapshot; returns how many moved more than epsilon.
+    /// One update of every particle from the same snapshot; returns how many
+    /// moved more than epsilon. Each particle's step is scaled by its own
+    /// factor, halved when the step points against its last one (it overshot an
+    /// equilibrium: on curved rest shapes the field-gradient directions jump
+    /// between triangles, and undamped particles circle for ever) and doubled,
+    /// up to 1, otherwise; so particles settle where the forces balance, and
+    /// still follow a fold at full speed two or three updates after it pulls.
     pub fn update(&mut self, positions: &[DVec3]) -> u32 {
-        self.load_frame(positions);
-        self.step()
+        self.step(positions)
     }
 
-    /// [`Sensor::update`] at the positions in the buffer.
-    fn step(&mut self) -> u32 {
+    /// [`Sensor::update`] (positions already checked).
+    fn step(&mut self, raw: &[DVec3]) -> u32 {
+        self.load_corners(raw);
         let (mesh, positions) = (&*self.norm, &self.scaled);
         let unit = mesh.mean_edge_length();
         self.locals.clear();
@@ -235,13 +349,28 @@ impl Sensor {
             self.params.b,
             &mut self.forces,
         );
+        self.damping.resize(self.points.len(), Damping::default());
+        for (((p, l), f), dmp) in self
+            .points
+            .iter_mut()
+            .zip(&self.locals)
+            .zip(&self.forces)
+            .zip(&mut self.damping)
+        {
+            let d = displacement(&self.params, l, *f);
+            dmp.steady = d.dot(dmp.last) > STEADY_COS * d.length() * dmp.last.length();
+            dmp.last = d;
+            let step = clamped(&self.params, d) * dmp.scale;
+            dmp.asked = step.length();
+            *p = walk::step(mesh, &l.map, *p, step * unit);
+        }
+        self.load_corners(raw);
+        let mesh = &*self.norm;
         let mut moving = 0;
-        for ((p, l), f) in self.points.iter_mut().zip(&self.locals).zip(&self.forces) {
-            let d = displacement(&self.params, l, *f) * unit;
-            *p = walk::step(mesh, &l.map, *p, d);
-            if p.position(mesh, positions).distance(l.current * unit) > self.params.epsilon * unit {
-                moving += 1;
-            }
+        for ((p, l), dmp) in self.points.iter().zip(&self.locals).zip(&mut self.damping) {
+            let moved = p.position(mesh, &self.scaled).distance(l.current * unit) / unit;
+            moving += (moved > self.params.epsilon) as u32;
+            dmp.settle(moved);
         }
         moving
     }
@@ -251,7 +380,7 @@ impl Sensor {
     /// along the surface, or on different components), else among all pairs
     /// (then it does not trigger). First such pair on ties.
     pub fn closest(&mut self, positions: &[DVec3]) -> ClosestPair {
-        self.load_frame(positions);
+        self.load_corners(positions);
         self.closest_in_frame()
     }
 
@@ -273,8 +402,9 @@ impl Sensor {
         for i in 0..cur.len() {
             for j in i + 1..cur.len() {
                 let sl = cur[i].distance(cur[j]) / unit;
-                let odl = self.odl.path(&self.points, i, j).length;
-                let folded = !(sl > (1.0 - FOLD_T) * odl);
+                let path = self.odl.path(&self.points, i, j);
+                let odl = path.length;
+                let folded = !(sl > (1.0 - FOLD_T) * path.lower);
                 if (folded, -sl) > (best.folded, -best.sl) {
                     best = ClosestPair {
                         i,
@@ -290,18 +420,26 @@ impl Sensor {
     }
 }
 
-/// The step of a particle under force `f` in mean-edge units: the tangent part
-/// F - (F.n) n, times the gain, clamped to the maximum step. Zero on a degenerate triangle.
+/// The step of a particle under force `f` in mean-edge units before the
+/// clamp: the tangent part F - (F.n) n, times the gain. Zero on a degenerate
+/// triangle or a non-finite force.
 #[inline]
 fn displacement(params: &SensorParams, l: &Local, f: DVec3) -> DVec3 {
     let Some(n) = l.map.normal else {
         return DVec3::ZERO;
     };
     let step = (f - n * f.dot(n)) * params.step_gain;
-    let len = step.length();
-    if !len.is_finite() {
-        return DVec3::ZERO;
+    if step.is_finite() {
+        step
+    } else {
+        DVec3::ZERO
     }
+}
+
+/// `step` clamped to the maximum step.
+#[inline]
+fn clamped(params: &SensorParams, step: DVec3) -> DVec3 {
+    let len = step.length();
     if len > params.max_step {
         step * (params.max_step / len)
     } else {
