@@ -12,8 +12,11 @@ use super::hierarchy::BvhDetector;
 use super::narrow::{for_each_owned_pair, ElementPair};
 use super::Detector;
 use crate::bvh::traverse::{self_traverse, LeafVisitor, TraverseOptions};
+use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geom::ccd::{time_of_impact, Pair};
+use crate::geom::Aabb;
+use crate::stats::Counters;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
@@ -90,10 +93,7 @@ impl LeafVisitor for Continuous<'_> {
 
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Impact>) {
         for_each_owned_pair(self.mesh, a, b, |pair| {
-            let pair = match pair {
-                ElementPair::EdgeEdge(e0, e1) => ElementPair::EdgeEdge(e0.min(e1), e0.max(e1)),
-                vt => vt,
-            };
+            let pair = pair.canonical();
             if let Some(toi) = element_toi(self.mesh, self.x0, self.x1, pair, self.xi) {
                 out.push(Impact { pair, toi });
             }
@@ -107,33 +107,9 @@ fn key(i: &Impact) -> (u32, u32) {
     }
 }
 
-impl BvhDetector {
-    /// Every element pair that may come within `separation` (>= 0) while the
-    /// mesh moves linearly from `x0` to `x1`, with conservative times of
-    /// impact. Leaves the hierarchy fitted to the swept boxes (the next
-    /// `detect` refits it).
-    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], separation: f64) -> Result<Impacts> {
-        let mesh = self.mesh().clone();
-        mesh.check_positions(x0)?;
-        mesh.check_positions(x1)?;
-        if !(separation >= 0.0 && separation.is_finite()) {
-            return Err(Error::InvalidParameter(format!(
-                "separation must be finite and >= 0, got {separation}"
-            )));
-        }
-        self.refit_swept(x0, x1);
-        let opts = TraverseOptions {
-            cones: false,
-            contour: false,
-            gap: separation,
-        };
-        let visitor = Continuous {
-            mesh: &mesh,
-            x0,
-            x1,
-            xi: separation,
-        };
-        let (items, _) = self_traverse(self.bvh(), &mesh, x1, opts, &visitor);
+impl Impacts {
+    /// Splits raw impacts by kind and sorts each list by element pair.
+    pub(crate) fn from_items(items: Vec<Impact>) -> Impacts {
         let mut out = Impacts::default();
         for i in items {
             match i.pair {
@@ -143,6 +119,76 @@ impl BvhDetector {
         }
         out.vertex_triangle.sort_unstable_by_key(key);
         out.edge_edge.sort_unstable_by_key(key);
-        Ok(out)
+        out
+    }
+}
+
+/// Checks the arguments of a continuous query.
+pub(crate) fn check_args(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], separation: f64) -> Result<()> {
+    mesh.check_positions(x0)?;
+    mesh.check_positions(x1)?;
+    if !(separation >= 0.0 && separation.is_finite()) {
+        return Err(Error::InvalidParameter(format!(
+            "separation must be finite and >= 0, got {separation}"
+        )));
+    }
+    Ok(())
+}
+
+/// The continuous query on a hierarchy already fitted to the swept boxes
+/// ([`Bvh::refit_swept`]) of the motion `x0 -> x1`.
+pub(crate) fn swept_query(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    separation: f64,
+) -> (Impacts, Counters) {
+    let opts = TraverseOptions {
+        cones: false,
+        contour: false,
+        gap: separation,
+    };
+    let visitor = Continuous {
+        mesh,
+        x0,
+        x1,
+        xi: separation,
+    };
+    let (items, counters) = self_traverse(bvh, mesh, x1, opts, &visitor);
+    (Impacts::from_items(items), counters)
+}
+
+/// Time of impact of a candidate `pair` (canonical) exactly as the swept
+/// query computes it, box test included: `None` where the swept query would
+/// not report it. So a query over any candidate superset equals the swept query.
+pub(crate) fn candidate_toi(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    pair: ElementPair,
+    separation: f64,
+) -> Option<Impact> {
+    let swept = |t: u32| {
+        Aabb::from_points(&mesh.corners(x0, t as usize))
+            .union(&Aabb::from_points(&mesh.corners(x1, t as usize)))
+    };
+    let [a, b] = pair.visiting_triangles(mesh);
+    if a == b || !swept(a).within(&swept(b), separation) {
+        return None;
+    }
+    element_toi(mesh, x0, x1, pair, separation).map(|toi| Impact { pair, toi })
+}
+
+impl BvhDetector {
+    /// Every element pair that may come within `separation` (>= 0) while the
+    /// mesh moves linearly from `x0` to `x1`, with conservative times of
+    /// impact. Leaves the hierarchy fitted to the swept boxes (the next
+    /// `detect` refits it).
+    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], separation: f64) -> Result<Impacts> {
+        let mesh = self.mesh().clone();
+        check_args(&mesh, x0, x1, separation)?;
+        self.refit_swept(x0, x1);
+        Ok(swept_query(self.bvh(), &mesh, x0, x1, separation).0)
     }
 }

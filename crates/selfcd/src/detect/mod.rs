@@ -12,6 +12,7 @@
 //! same hierarchy with boxes only.
 
 pub mod brute;
+pub mod coherent;
 pub mod compare;
 pub mod continuous;
 pub mod first;

@@ -12,7 +12,7 @@
 //! `RESOLUTION` times the initial one, so it reports only pairs that do come
 //! within `xi` (up to that resolution).
 
-use super::distance::{point_triangle_distance2, segment_segment_distance2};
+use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use glam::DVec3;
 
 /// Which primitive pair four points form.
@@ -51,12 +51,35 @@ fn speed_bound(pair: Pair, p: &[DVec3; 4]) -> f64 {
     }
 }
 
+/// True when the two sides' swept hulls stay farther apart than `xi` plus the
+/// resolution the iteration below reports at (`RESOLUTION` of the initial gap,
+/// which is at most the swept box's diagonal): then the iteration would return
+/// `None` too, and this cull answers the same in a few comparisons.
+fn swept_apart(pair: Pair, x0: &[DVec3; 4], x1: &[DVec3; 4], xi: f64) -> bool {
+    let split = match pair {
+        Pair::PointTriangle => 1,
+        Pair::EdgeEdge => 2,
+    };
+    let bounds = |r: std::ops::Range<usize>| {
+        r.fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), i| (lo.min(x0[i]).min(x1[i]), hi.max(x0[i]).max(x1[i])),
+        )
+    };
+    let ((la, ha), (lb, hb)) = (bounds(0..split), bounds(split..4));
+    let diag = (ha.max(hb) - la.min(lb)).length();
+    hulls_apart(&[la, ha], &[lb, hb], xi + 2.0 * RESOLUTION * diag)
+}
+
 /// First time t in [0, 1] at which the pair, moving linearly from `x0` to `x1`,
 /// comes within distance `xi` (>= 0). Returns `None` when it stays farther
 /// than `xi` (plus `RESOLUTION` of the initial gap) for the whole step,
 /// `Some(0.0)` when it starts within `xi`, and otherwise a time no later than
 /// the true time of impact.
 pub fn time_of_impact(pair: Pair, x0: [DVec3; 4], x1: [DVec3; 4], xi: f64) -> Option<f64> {
+    if swept_apart(pair, &x0, &x1, xi) {
+        return None;
+    }
     let p: [DVec3; 4] = std::array::from_fn(|i| x1[i] - x0[i]);
     let gap = |x: &[DVec3; 4]| {
         let d2 = distance2(pair, x);
@@ -73,6 +96,11 @@ pub fn time_of_impact(pair: Pair, x0: [DVec3; 4], x1: [DVec3; 4], xi: f64) -> Op
     }
     let target = RESOLUTION * g0;
     let (mut t, mut step) = (0.0, STEP * g0 / lp);
+    if step > 1.0 {
+        // The first advance already leaves the step (what the loop would
+        // find after one more distance evaluation).
+        return None;
+    }
     for _ in 0..MAX_ITERATIONS {
         for (xi_, pi) in x.iter_mut().zip(&p) {
             *xi_ += step * *pi;
