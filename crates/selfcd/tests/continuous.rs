@@ -212,9 +212,7 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
                 .unwrap();
             let want = fresh.continuous(&x0, &x1, separation).unwrap();
             assert_eq!(got, want, "frame {frame}, separation {separation}");
-            let swept = narrow
-                .continuous(&x0, &x1, separation, &mut stats)
-                .unwrap();
+            let swept = narrow.continuous(&x0, &x1, separation, &mut stats).unwrap();
             assert_eq!(swept, want, "frame {frame}, separation {separation}");
             impacts += got.vertex_triangle.len() + got.edge_edge.len();
         }
@@ -226,7 +224,13 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         "coherent: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} swept",
         stats.candidate_builds, stats.candidate_reuses, stats.swept_queries
     );
-    assert!(contacts > 0 && impacts > 0, "nothing came near: nothing tested");
+    assert!(
+        contacts > 0 && impacts > 0,
+        "nothing came near: nothing tested"
+    );
     assert!(stats.candidate_builds > 1 && stats.candidate_reuses > 0);
-    assert!(stats.swept_queries > 0, "the swept fallback was never tested");
+    assert!(
+        stats.swept_queries > 0,
+        "the swept fallback was never tested"
+    );
 }

@@ -29,12 +29,13 @@
 
 use super::model::{Cloth, Energy};
 use super::obstacle::{Collider, Obstacles};
-use super::response::{self, Contact, ContactKind, ContactParams, StepStart, Zones};
+use super::response::{self, Contact, ContactParams, StepStart, Zones};
 use super::solver::{Filter, Pcg, PcgOptions, System};
 use crate::bvh::{build::build, Bvh};
 use crate::detect::coherent::SelfQueries;
 use crate::detect::Method;
 use crate::error::{Error, Result};
+use crate::geom::ccd::StencilKind;
 use crate::stats::FrameStats;
 use glam::DVec3;
 use std::time::Instant;
@@ -83,7 +84,7 @@ impl SimOptions {
 }
 
 /// Pairs closer than this fraction of the thickness count as meeting in the continuous stage.
-const CONTINUOUS_SEPARATION: f64 = 0.5;
+const CONTINUOUS_THICKNESS: f64 = 0.5;
 /// Most continuous queries per step.
 const CONTINUOUS_ROUNDS: u32 = 4;
 /// Skin of the self candidate set, in mean rest edge lengths: the set is
@@ -177,8 +178,11 @@ impl Simulation {
         opts.validate()?;
         let mesh = cloth.mesh().clone();
         let mut queries = SelfQueries::new(mesh.clone(), SKIN * mesh.mean_edge_length())?;
-        let tolerated =
-            queries.intersections(mesh.rest(), method != Method::Bvh, &mut FrameStats::default())?;
+        let tolerated = queries.intersections(
+            mesh.rest(),
+            method != Method::Bvh,
+            &mut FrameStats::default(),
+        )?;
         let n = mesh.n_vertices();
         Ok(Simulation {
             x: mesh.rest().to_vec(),
@@ -225,7 +229,9 @@ impl Simulation {
                 *vi = DVec3::ZERO;
             }
         }
-        self.tolerated = self.queries.intersections(&x, self.cones(), &mut FrameStats::default())?;
+        self.tolerated =
+            self.queries
+                .intersections(&x, self.cones(), &mut FrameStats::default())?;
         (self.x, self.v) = (x, v);
         self.dv.iter_mut().for_each(|d| *d = DVec3::ZERO);
         Ok(())
@@ -318,7 +324,7 @@ impl Simulation {
         st.contacts = contacts.len();
         st.vertex_triangle = contacts
             .iter()
-            .filter(|c| c.kind == ContactKind::VertexTriangle)
+            .filter(|c| c.kind == StencilKind::VertexTriangle)
             .count();
 
         // 2. Solve, with vertex-triangle contacts in the filter.
@@ -357,7 +363,7 @@ impl Simulation {
         st.impulses = response::impulses(&contacts, &inv_mass, &mut v, &contact, h, mu).impulses;
 
         // 4. Continuous stage.
-        let separation = CONTINUOUS_SEPARATION * contact.thickness;
+        let thickness = CONTINUOUS_THICKNESS * contact.thickness;
         let mut x1 = x0.clone();
         while st.ccd_rounds < CONTINUOUS_ROUNDS {
             for ((e, a), b) in x1.iter_mut().zip(&x0).zip(&v) {
@@ -368,13 +374,13 @@ impl Simulation {
             if self.opts.self_collision {
                 let (c0, c1) = (&x0[..n], &x1[..n]);
                 let found = timed(&mut st.detect_time, || {
-                    self.queries.continuous(c0, c1, separation, &mut det)
+                    self.queries.continuous(c0, c1, thickness, &mut det)
                 })?;
                 hits = response::impact_contacts(self.cloth.mesh(), c0, c1, &found);
             }
             if let Some((obs, bvh)) = self.obstacles.as_mut() {
                 let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
-                let found = timed(&mut st.obstacle_time, || c.continuous(&x0, &x1, separation));
+                let found = timed(&mut st.obstacle_time, || c.continuous(&x0, &x1, thickness));
                 hits.extend(response::cross_impact_contacts(c.meshes, &x0, &x1, &found));
             }
             st.ccd_impacts += hits.len() as u64;

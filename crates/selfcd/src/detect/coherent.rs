@@ -91,13 +91,10 @@ impl Candidates {
 fn deviation(r: &[DVec3], x: &[DVec3]) -> f64 {
     let d = |i: usize| x[i] - r[i];
     let (lo, hi) = if x.len() >= PAR_MIN {
-        (0..x.len())
-            .into_par_iter()
-            .map(|i| (d(i), d(i)))
-            .reduce(
-                || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            )
+        (0..x.len()).into_par_iter().map(|i| (d(i), d(i))).reduce(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        )
     } else {
         (0..x.len()).fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -175,8 +172,11 @@ pub struct SelfQueries {
 /// A continuous query whose motion its candidate set does not cover rebuilds
 /// the set with a skin this much wider than the motion's deviation.
 const SKIN_OVER_MOTION: f64 = 2.2;
-/// Default largest skin, in units of the base skin; wider motions take the swept traversal.
-const MAX_SKIN: f64 = 8.0;
+/// Default largest skin, in units of the base skin; wider motions take the
+/// swept traversal. A sheet has in-plane neighbours within any skin, so wide
+/// skins cost more than they save (measured: 8 was slower than 1 or 2 on the
+/// falling centre scene).
+const MAX_SKIN: f64 = 2.0;
 
 impl SelfQueries {
     /// Builds the hierarchy of `mesh`; candidate sets are built with `skin`
@@ -210,7 +210,7 @@ impl SelfQueries {
     }
 
     /// Sets the widest skin a continuous query may rebuild its candidate set
-    /// with (default 8 times the base skin); motions that need more take the
+    /// with (default 2 times the base skin); motions that need more take the
     /// swept traversal instead.
     pub fn set_max_skin(&mut self, max_skin: f64) {
         self.max_skin = max_skin;
@@ -258,10 +258,7 @@ impl SelfQueries {
             });
         }
         pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let magnitude = x
-            .iter()
-            .map(|p| p.abs().max_element())
-            .fold(0.0, f64::max);
+        let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,
@@ -331,7 +328,7 @@ impl SelfQueries {
         Ok(out)
     }
 
-    /// Every element pair that may come within `separation` (>= 0) while the
+    /// Every element pair that may come within `thickness` (>= 0) while the
     /// mesh moves linearly from `x0` to `x1`: equal to
     /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
     /// From the candidate set when it covers both ends; else, when the motion's
@@ -343,18 +340,18 @@ impl SelfQueries {
         &mut self,
         x0: &[DVec3],
         x1: &[DVec3],
-        separation: f64,
+        thickness: f64,
         s: &mut FrameStats,
     ) -> Result<Impacts> {
         let mesh = self.mesh.clone();
-        check_args(&mesh, x0, x1, separation)?;
-        let cover = |c: &Candidates, x| c.cover(x, separation);
+        check_args(&mesh, x0, x1, thickness)?;
+        let cover = |c: &Candidates, x| c.cover(x, thickness);
         let mut ends = (cover(&self.candidates, x0), cover(&self.candidates, x1));
         if ends.0.is_none() || ends.1.is_none() {
             let dev = deviation(x0, x1);
             let skin = self.skin.max(SKIN_OVER_MOTION * dev);
             if skin <= self.max_skin {
-                let reach = separation.max(self.candidates.reach);
+                let reach = thickness.max(self.candidates.reach);
                 self.rebuild(x0, reach, skin, s)?;
                 ends = (Some(0.0), Some(dev));
             }
@@ -363,10 +360,8 @@ impl SelfQueries {
         if let (Some(d0), Some(d1)) = ends {
             s.candidate_reuses += 1;
             // The deviation at any time of the step is at most the ends' (module doc).
-            let pairs = self.candidates.within(separation, d0.max(d1));
-            let found = filter_map_ordered(pairs, |&p| {
-                candidate_toi(&mesh, x0, x1, p, separation)
-            });
+            let pairs = self.candidates.within(thickness, d0.max(d1));
+            let found = filter_map_ordered(pairs, |&p| candidate_toi(&mesh, x0, x1, p, thickness));
             s.candidates += pairs.len() as u64;
             s.traverse_time += t0.elapsed().as_secs_f64();
             return Ok(Impacts::from_items(found));
@@ -375,7 +370,7 @@ impl SelfQueries {
         self.fit = Fit::Stale;
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let (found, c) = swept_query(&self.bvh, &mesh, x0, x1, separation);
+        let (found, c) = swept_query(&self.bvh, &mesh, x0, x1, thickness);
         s.swept_queries += 1;
         s.node_pairs += c.node_pairs;
         s.traverse_time += t1.elapsed().as_secs_f64();

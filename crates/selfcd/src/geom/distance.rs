@@ -27,7 +27,12 @@ fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
 pub fn hulls_apart(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
     let ((la, ha), (lb, hb)) = (bounds(a), bounds(b));
     let sep = (lb - ha).max(la - hb).max_element();
-    let mag = la.abs().max(ha.abs()).max(lb.abs()).max(hb.abs()).max_element();
+    let mag = la
+        .abs()
+        .max(ha.abs())
+        .max(lb.abs())
+        .max(hb.abs())
+        .max_element();
     sep > gap + APART_SLACK * mag
 }
 
