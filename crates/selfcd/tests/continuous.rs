@@ -234,3 +234,43 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         "the swept fallback was never tested"
     );
 }
+
+/// A rigid translation keeps the candidate set (distances do not change), and
+/// the answers still equal a fresh query's at the translated positions; a
+/// motion wider than the skin rebuilds it.
+#[test]
+fn translation_reuses_the_candidate_set() {
+    use selfcd::detect::coherent::SelfQueries;
+    use selfcd::detect::Detector;
+    use selfcd::FrameStats;
+
+    let m = mesh(24);
+    let x = Deformation::Fold {
+        angle: 0.95 * PI,
+        radius: 0.03,
+    }
+    .apply(m.rest());
+    let e = m.mean_edge_length();
+    let d = 0.6 * e;
+    let mut q = SelfQueries::new(m.clone(), 0.25 * e).unwrap();
+    let mut fresh = BvhDetector::new(m.clone(), Method::Bvh, d);
+    let mut s = FrameStats::default();
+    let first = q.proximity(&x, d, &mut s).unwrap();
+    assert_eq!(first, fresh.detect(&x).unwrap().proximity);
+    assert!(
+        !first.vertex_triangle.is_empty(),
+        "the fold must come near itself"
+    );
+    let moved: Vec<DVec3> = x.iter().map(|p| *p + DVec3::new(3.0, -2.0, 7.0)).collect();
+    let again = q.proximity(&moved, d, &mut s).unwrap();
+    assert_eq!(again, fresh.detect(&moved).unwrap().proximity);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 1));
+    let bent = Deformation::Fold {
+        angle: 0.7 * PI,
+        radius: 0.03,
+    }
+    .apply(m.rest());
+    let other = q.proximity(&bent, d, &mut s).unwrap();
+    assert_eq!(other, fresh.detect(&bent).unwrap().proximity);
+    assert_eq!(s.candidate_builds, 2);
+}
