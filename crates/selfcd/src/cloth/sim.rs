@@ -1,4 +1,4 @@
-//! `Simulation`: a cloth, its state, obstacles and detectors, stepped in time.
+//! `Simulation`: a cloth, its state, obstacles and collision queries, stepped in time.
 //!
 //! Data flows one way through a step of length h, and the step alone runs
 //! (and times) the queries, all on one self-collision hierarchy
@@ -148,7 +148,7 @@ fn timed<T>(acc: &mut f64, f: impl FnOnce() -> T) -> T {
     out
 }
 
-/// A cloth in motion: state, obstacles, solver and detectors.
+/// A cloth in motion: state, obstacles, solver and collision queries.
 pub struct Simulation {
     cloth: Cloth,
     opts: SimOptions,
