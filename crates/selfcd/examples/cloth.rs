@@ -54,6 +54,7 @@ fn run() -> Result<(), String> {
     let (mut iters, mut contacts, mut in_zones, mut rounds, mut worst) =
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
+    let (mut builds, mut reuses, mut swept) = (0u64, 0u64, 0u64);
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
         step += st.step_time;
@@ -65,6 +66,9 @@ fn run() -> Result<(), String> {
         in_zones += st.reverted;
         rounds += st.correction_rounds;
         intersections += st.intersections;
+        builds += st.detection.candidate_builds;
+        reuses += st.detection.candidate_reuses;
+        swept += st.detection.swept_queries;
         worst = worst.max(st.step_time);
         if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
             let e = sim.energy();
@@ -94,6 +98,9 @@ fn run() -> Result<(), String> {
         iters as f64 / s,
         contacts as f64 / s,
         rounds as f64 / s
+    );
+    println!(
+        "candidate sets built {builds}, queries answered from a cached set {reuses}, swept continuous queries {swept}"
     );
     Ok(())
 }

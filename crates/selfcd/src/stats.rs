@@ -32,6 +32,14 @@ pub struct FrameStats {
     pub contacts: u64,
     /// Proximity contacts (vertex-triangle + edge-edge) found, when thickness > 0.
     pub proximity_contacts: u64,
+    /// Coherent queries: candidate sets built by a traversal (fresh work).
+    pub candidate_builds: u64,
+    /// Coherent queries: queries answered from a cached candidate set (reused work).
+    pub candidate_reuses: u64,
+    /// Coherent queries: cached candidate element pairs re-tested.
+    pub candidates: u64,
+    /// Coherent queries: continuous queries that needed a swept traversal.
+    pub swept_queries: u64,
     /// Sensor-gated only: did the sensor trigger the traversal this frame.
     pub triggered: Option<bool>,
     /// Sensor-gated only: particle updates made while relaxing.
@@ -83,6 +91,18 @@ impl Counters {
         self.adjacent_skips += o.adjacent_skips;
         self.primitive_tests += o.primitive_tests;
         self.filter_decisions += o.filter_decisions;
+    }
+
+    /// Adds the counters to a frame's stats (several traversals in one frame).
+    pub fn add_to(&self, s: &mut FrameStats) {
+        s.node_pairs += self.node_pairs;
+        s.self_culls += self.self_culls;
+        s.pair_culls += self.pair_culls;
+        s.contour_tests += self.contour_tests;
+        s.contour_fails += self.contour_fails;
+        s.adjacent_skips += self.adjacent_skips;
+        s.primitive_tests += self.primitive_tests;
+        s.filter_decisions += self.filter_decisions;
     }
 
     /// Copies the counters into a frame's stats.

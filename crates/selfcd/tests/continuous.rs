@@ -175,3 +175,102 @@ fn bad_inputs_are_errors() {
     assert!(det.continuous(&x, &nan, 0.0).is_err());
     assert_eq!(det.continuous(&x, &x, 0.0).unwrap(), Impacts::default());
 }
+
+/// Coherent queries (one hierarchy, candidate set reused across frames) give
+/// exactly what fresh queries give, frame after frame of a simulated
+/// sequence that folds onto itself, through both the reuse and the rebuild paths.
+#[test]
+fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
+    use selfcd::cloth::PaperScene;
+    use selfcd::detect::coherent::SelfQueries;
+    use selfcd::detect::Detector;
+    use selfcd::FrameStats;
+
+    let mut sim = PaperScene::Center
+        .simulation(31, Method::BvhConesContour)
+        .unwrap();
+    let mesh = sim.cloth().mesh().clone();
+    let e = mesh.mean_edge_length();
+    let reach = sim.options().contact.detection_distance();
+    let mut coherent = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
+    // Never widens its skin: the swept fallback.
+    let mut narrow = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
+    narrow.set_max_skin(0.25 * e);
+    let mut fresh = BvhDetector::new(mesh.clone(), Method::Bvh, reach);
+    let mut stats = FrameStats::default();
+    let (mut contacts, mut impacts) = (0, 0);
+    let mut x0 = sim.positions().to_vec();
+    for frame in 0..240 {
+        sim.step().unwrap();
+        let x1 = sim.positions().to_vec();
+        let near = coherent.proximity(&x0, reach, &mut stats).unwrap();
+        assert_eq!(near, fresh.detect(&x0).unwrap().proximity, "frame {frame}");
+        contacts += near.vertex_triangle.len() + near.edge_edge.len();
+        for separation in [0.05 * e, reach] {
+            let got = coherent
+                .continuous(&x0, &x1, separation, &mut stats)
+                .unwrap();
+            let want = fresh.continuous(&x0, &x1, separation).unwrap();
+            assert_eq!(got, want, "frame {frame}, separation {separation}");
+            let swept = narrow.continuous(&x0, &x1, separation, &mut stats).unwrap();
+            assert_eq!(swept, want, "frame {frame}, separation {separation}");
+            impacts += got.vertex_triangle.len() + got.edge_edge.len();
+        }
+        let pairs = coherent.intersections(&x1, true, &mut stats).unwrap();
+        assert_eq!(pairs, fresh.detect(&x1).unwrap().pairs, "frame {frame}");
+        x0 = x1;
+    }
+    eprintln!(
+        "coherent: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} swept",
+        stats.candidate_builds, stats.candidate_reuses, stats.swept_queries
+    );
+    assert!(
+        contacts > 0 && impacts > 0,
+        "nothing came near: nothing tested"
+    );
+    assert!(stats.candidate_builds > 1 && stats.candidate_reuses > 0);
+    assert!(
+        stats.swept_queries > 0,
+        "the swept fallback was never tested"
+    );
+}
+
+/// A rigid translation keeps the candidate set (distances do not change), and
+/// the answers still equal a fresh query's at the translated positions; a
+/// motion wider than the skin rebuilds it.
+#[test]
+fn translation_reuses_the_candidate_set() {
+    use selfcd::detect::coherent::SelfQueries;
+    use selfcd::detect::Detector;
+    use selfcd::FrameStats;
+
+    let m = mesh(24);
+    let x = Deformation::Fold {
+        angle: 0.95 * PI,
+        radius: 0.03,
+    }
+    .apply(m.rest());
+    let e = m.mean_edge_length();
+    let d = 0.6 * e;
+    let mut q = SelfQueries::new(m.clone(), 0.25 * e).unwrap();
+    let mut fresh = BvhDetector::new(m.clone(), Method::Bvh, d);
+    let mut s = FrameStats::default();
+    let first = q.proximity(&x, d, &mut s).unwrap();
+    assert_eq!(first, fresh.detect(&x).unwrap().proximity);
+    assert!(
+        !first.vertex_triangle.is_empty(),
+        "the fold must come near itself"
+    );
+    let moved: Vec<DVec3> = x.iter().map(|p| *p + DVec3::new(3.0, -2.0, 7.0)).collect();
+    let again = q.proximity(&moved, d, &mut s).unwrap();
+    assert_eq!(again, fresh.detect(&moved).unwrap().proximity);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 1));
+    let bent = Deformation::Fold {
+        angle: 0.7 * PI,
+        radius: 0.03,
+    }
+    .apply(m.rest());
+    let other = q.proximity(&bent, d, &mut s).unwrap();
+    assert_eq!(other, fresh.detect(&bent).unwrap().proximity);
+    assert_eq!(s.candidate_builds, 2);
+}

@@ -157,13 +157,13 @@ impl<'a> Collider<'a> {
         cross::proximity(self.meshes, x, &pairs, d)
     }
 
-    /// Element pairs that come within `xi` while moving from `x0` to `x1` (combined).
-    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], xi: f64) -> Vec<Impact> {
+    /// Element pairs that come within `thickness` while moving from `x0` to `x1` (combined).
+    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Vec<Impact> {
         let ((c0, o0), (c1, o1)) = (self.split(x0), self.split(x1));
         self.cloth_bvh.refit_swept(self.meshes.cloth, c0, c1);
         self.obstacle_bvh.refit_swept(self.meshes.obstacle, o0, o1);
-        let pairs = self.candidates(xi);
-        cross::continuous(self.meshes, x0, x1, &pairs, xi)
+        let pairs = self.candidates(thickness);
+        cross::continuous(self.meshes, x0, x1, &pairs, thickness)
     }
 
     /// (cloth triangle, obstacle triangle) pairs that intersect at combined positions `x`.

@@ -38,7 +38,7 @@ use crate::detect::narrow::ElementPair;
 use crate::detect::obstacle::{self as cross, Meshes};
 use crate::detect::ProximityContacts;
 use crate::error::{Error, Result};
-use crate::geom::ccd::Pair;
+use crate::geom::ccd::StencilKind;
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
 use crate::mesh::Mesh;
 use glam::{DMat3, DQuat, DVec3};
@@ -101,15 +101,6 @@ impl ContactParams {
     }
 }
 
-/// Which elements a contact is between.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ContactKind {
-    /// A vertex (slot 0) and a triangle (slots 1-3).
-    VertexTriangle,
-    /// Two edges (slots 0-1 and 2-3).
-    EdgeEdge,
-}
-
 /// A proximity contact as a weighted set of four vertices: the relative
 /// position of the two sides is `sum_k weights[k] x[verts[k]]` (first side
 /// minus second), and `normal` points from the second side to the first.
@@ -124,7 +115,7 @@ pub struct Contact {
     /// Distance between the two sides when detected (m).
     pub distance: f64,
     /// What touches what.
-    pub kind: ContactKind,
+    pub kind: StencilKind,
 }
 
 impl Contact {
@@ -198,7 +189,7 @@ pub fn point_triangle_stencil(
         weights: [1.0, -w[0], -w[1], -w[2]],
         normal: unit_or(p - q, scale, face),
         distance,
-        kind: ContactKind::VertexTriangle,
+        kind: StencilKind::VertexTriangle,
     }
 }
 
@@ -233,20 +224,25 @@ pub fn edge_edge_stencil(
         weights: [1.0 - s, s, t - 1.0, -t],
         normal: unit_or(gap, scale, across),
         distance,
-        kind: ContactKind::EdgeEdge,
+        kind: StencilKind::EdgeEdge,
     }
 }
 
 /// A stencil of `kind` over `ids` at positions `at`, with the closest points
 /// found again there (for contacts found by a continuous query).
-pub fn stencil_at(at: impl Fn(u32) -> DVec3, kind: Pair, ids: [u32; 4], scale: f64) -> Contact {
+pub fn stencil_at(
+    at: impl Fn(u32) -> DVec3,
+    kind: StencilKind,
+    ids: [u32; 4],
+    scale: f64,
+) -> Contact {
     let [p, a, b, c] = ids.map(&at);
     match kind {
-        Pair::PointTriangle => {
+        StencilKind::VertexTriangle => {
             let (d2, w) = point_triangle_distance2(p, a, b, c);
             point_triangle_stencil(at, ids, w, d2.sqrt(), scale)
         }
-        Pair::EdgeEdge => {
+        StencilKind::EdgeEdge => {
             let (d2, s, t) = segment_segment_distance2(p, a, b, c);
             edge_edge_stencil(at, ids, [s, t], d2.sqrt(), scale)
         }
@@ -280,7 +276,7 @@ pub fn constrain(
     let (mut added, covered) = (0, filter.len());
     for c in contacts
         .iter()
-        .filter(|c| c.kind == ContactKind::VertexTriangle && c.distance < p.thickness)
+        .filter(|c| c.kind == StencilKind::VertexTriangle && c.distance < p.thickness)
         .filter(|c| (c.verts[0] as usize) < covered)
     {
         let (vn, want) = (c.normal_velocity(v), goal(c, p, h));
@@ -399,7 +395,7 @@ fn resolve(
 }
 
 /// Stage 2b, continuous collisions (Bridson et al. 2002): given the element
-/// pairs that come within the separation while every vertex moves from `x0`
+/// pairs that come within the thickness while every vertex moves from `x0`
 /// to `x0 + h v` (the engine's continuous query, run by the caller), each
 /// gets an inelastic impulse that stops its approach along the normal at its
 /// time of impact, then friction `mu(c)`. The caller repeats the query with
@@ -426,11 +422,11 @@ pub fn impact_contacts(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], found: &Impacts)
             let (kind, ids) = match i.pair {
                 ElementPair::VertexTriangle(v, t) => {
                     let [a, b, c] = mesh.triangles()[t as usize];
-                    (Pair::PointTriangle, [v, a, b, c])
+                    (StencilKind::VertexTriangle, [v, a, b, c])
                 }
                 ElementPair::EdgeEdge(e0, e1) => {
                     let ([a, b], [p, q]) = (edges[e0 as usize], edges[e1 as usize]);
-                    (Pair::EdgeEdge, [a, b, p, q])
+                    (StencilKind::EdgeEdge, [a, b, p, q])
                 }
             };
             stencil_at(at, kind, ids, scale)
@@ -445,10 +441,10 @@ pub fn cross_contacts(m: Meshes, x: &[DVec3], found: &[cross::Near]) -> Vec<Cont
     found
         .iter()
         .map(|n| match m.stencil(n.pair) {
-            (Pair::PointTriangle, ids) => {
+            (StencilKind::VertexTriangle, ids) => {
                 point_triangle_stencil(at, ids, n.params, n.distance, scale)
             }
-            (Pair::EdgeEdge, ids) => {
+            (StencilKind::EdgeEdge, ids) => {
                 edge_edge_stencil(at, ids, [n.params[0], n.params[1]], n.distance, scale)
             }
         })

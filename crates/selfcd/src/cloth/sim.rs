@@ -1,10 +1,12 @@
-//! `Simulation`: a cloth, its state, obstacles and detectors, stepped in time.
+//! `Simulation`: a cloth, its state, obstacles and collision queries, stepped in time.
 //!
 //! Data flows one way through a step of length h, and the step alone runs
-//! (and times) the queries:
-//! 1. one detection pass at the current positions: self proximity within
-//!    `d + margin` (the method's detector) and cloth-obstacle proximity (the
-//!    obstacles at the start of the step);
+//! (and times) the queries, all on one self-collision hierarchy
+//! ([`SelfQueries`]: static boxes for proximity and intersections, swept
+//! boxes for continuous queries, and a candidate set of element pairs reused
+//! across steps while the cloth moves less than its skin):
+//! 1. proximity at the current positions: self within `d + margin` and
+//!    cloth-obstacle (the obstacles at the start of the step);
 //! 2. assemble and solve the backward Euler system with the filter: pins fixed,
 //!    vertex-triangle contacts inside `d` constrained along their normal;
 //! 3. `v += dv`, contact impulses with friction;
@@ -18,17 +20,22 @@
 //!    left alone and still counted in [`StepStats::intersections`]; a state
 //!    free of them stays free.
 //!
-//! The detectors own their hierarchies; the simulation owns positions and
-//! velocities and hands the detectors positions.
+//! The queries own the hierarchies; the simulation owns positions and
+//! velocities and hands the queries positions. The detection method decides
+//! the culling of the intersection checks: boxes only for `bvh`, the
+//! conservative cones and contours of `bvh-cones-contour` otherwise (the
+//! correction needs a conservative check, so the paper's `bvh-cones` and the
+//! sensor gate are not used for it).
 
 use super::model::{Cloth, Energy};
 use super::obstacle::{Collider, Obstacles};
-use super::response::{self, Contact, ContactKind, ContactParams, StepStart, Zones};
+use super::response::{self, Contact, ContactParams, StepStart, Zones};
 use super::solver::{Filter, Pcg, PcgOptions, System};
 use crate::bvh::{build::build, Bvh};
-use crate::detect::hierarchy::BvhDetector;
-use crate::detect::{new_detector, Detector, DetectorOptions, Method};
+use crate::detect::coherent::SelfQueries;
+use crate::detect::Method;
 use crate::error::{Error, Result};
+use crate::geom::ccd::StencilKind;
 use crate::stats::FrameStats;
 use glam::DVec3;
 use std::time::Instant;
@@ -77,9 +84,12 @@ impl SimOptions {
 }
 
 /// Pairs closer than this fraction of the thickness count as meeting in the continuous stage.
-const CONTINUOUS_SEPARATION: f64 = 0.5;
+const CONTINUOUS_THICKNESS: f64 = 0.5;
 /// Most continuous queries per step.
 const CONTINUOUS_ROUNDS: u32 = 4;
+/// Skin of the self candidate set, in mean rest edge lengths: the set is
+/// reused while no vertex moved more than half of it (common translation aside).
+const SKIN: f64 = 0.25;
 /// Most correction rounds per step.
 const CORRECTION_ROUNDS: u32 = 64;
 
@@ -90,7 +100,7 @@ pub struct StepStats {
     pub iterations: u32,
     /// Final relative residual of the solve.
     pub residual: f64,
-    /// Stats of the method's detection pass at the start of the step.
+    /// Work of the step's self queries (proximity, continuous, intersections), summed.
     pub detection: FrameStats,
     /// Proximity contacts responded to this step (vertex-triangle + edge-edge, self and obstacle).
     pub contacts: usize,
@@ -138,7 +148,7 @@ fn timed<T>(acc: &mut f64, f: impl FnOnce() -> T) -> T {
     out
 }
 
-/// A cloth in motion: state, obstacles, solver and detectors.
+/// A cloth in motion: state, obstacles, solver and collision queries.
 pub struct Simulation {
     cloth: Cloth,
     opts: SimOptions,
@@ -146,15 +156,13 @@ pub struct Simulation {
     v: Vec<DVec3>,
     dv: Vec<DVec3>,
     inv_mass: Vec<f64>,
-    /// The method's detector: proximity at the start of each step.
-    detector: Box<dyn Detector>,
-    /// Conservative intersection check of the correction stage.
-    checker: Box<dyn Detector>,
+    /// The detection method (culling of the intersection checks).
+    method: Method,
+    /// Self queries: one hierarchy, one candidate set.
+    queries: SelfQueries,
     /// Self-intersecting pairs of the current state (sorted): the correction
     /// leaves these alone (an input may start with some), and removes any other.
     tolerated: Vec<[u32; 2]>,
-    /// Hierarchy for the self continuous query (swept boxes).
-    continuous: BvhDetector,
     /// Obstacles, with the cloth hierarchy their queries traverse.
     obstacles: Option<(Obstacles, Bvh)>,
     system: System,
@@ -169,21 +177,12 @@ impl Simulation {
     pub fn new(cloth: Cloth, method: Method, opts: SimOptions) -> Result<Simulation> {
         opts.validate()?;
         let mesh = cloth.mesh().clone();
-        let detector = new_detector(
-            mesh.clone(),
-            method,
-            &DetectorOptions {
-                thickness: opts.contact.detection_distance(),
-                ..Default::default()
-            },
+        let mut queries = SelfQueries::new(mesh.clone(), SKIN * mesh.mean_edge_length())?;
+        let tolerated = queries.intersections(
+            mesh.rest(),
+            method != Method::Bvh,
+            &mut FrameStats::default(),
         )?;
-        let mut checker = new_detector(
-            mesh.clone(),
-            Method::BvhConesContour,
-            &DetectorOptions::default(),
-        )?;
-        let tolerated = checker.detect(mesh.rest())?.pairs;
-        let continuous = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
         let n = mesh.n_vertices();
         Ok(Simulation {
             x: mesh.rest().to_vec(),
@@ -194,10 +193,9 @@ impl Simulation {
             pcg: Pcg::default(),
             cloth,
             opts,
-            detector,
-            checker,
+            method,
+            queries,
             tolerated,
-            continuous,
             obstacles: None,
             time: 0.0,
             steps: 0,
@@ -231,7 +229,9 @@ impl Simulation {
                 *vi = DVec3::ZERO;
             }
         }
-        self.tolerated = self.checker.detect(&x)?.pairs;
+        self.tolerated =
+            self.queries
+                .intersections(&x, self.cones(), &mut FrameStats::default())?;
         (self.x, self.v) = (x, v);
         self.dv.iter_mut().for_each(|d| *d = DVec3::ZERO);
         Ok(())
@@ -259,7 +259,12 @@ impl Simulation {
 
     /// The detection method driving the response.
     pub fn method(&self) -> Method {
-        self.detector.method()
+        self.method
+    }
+
+    /// Whether the intersection checks cull with cones and contours.
+    fn cones(&self) -> bool {
+        self.method != Method::Bvh
     }
 
     /// Simulated time (s).
@@ -299,10 +304,13 @@ impl Simulation {
 
         // 1. One detection pass at the start positions.
         let mut contacts = Vec::new();
+        let mut det = FrameStats::default();
         if self.opts.self_collision {
-            let det = timed(&mut st.detect_time, || self.detector.detect(&self.x))?;
-            st.detection = det.stats;
-            contacts = response::gather(self.cloth.mesh(), &self.x, &det.proximity);
+            let reach = contact.detection_distance();
+            let near = timed(&mut st.detect_time, || {
+                self.queries.proximity(&self.x, reach, &mut det)
+            })?;
+            contacts = response::gather(self.cloth.mesh(), &self.x, &near);
         }
         if let Some((obs, bvh)) = self.obstacles.as_mut() {
             let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
@@ -316,7 +324,7 @@ impl Simulation {
         st.contacts = contacts.len();
         st.vertex_triangle = contacts
             .iter()
-            .filter(|c| c.kind == ContactKind::VertexTriangle)
+            .filter(|c| c.kind == StencilKind::VertexTriangle)
             .count();
 
         // 2. Solve, with vertex-triangle contacts in the filter.
@@ -355,7 +363,7 @@ impl Simulation {
         st.impulses = response::impulses(&contacts, &inv_mass, &mut v, &contact, h, mu).impulses;
 
         // 4. Continuous stage.
-        let separation = CONTINUOUS_SEPARATION * contact.thickness;
+        let thickness = CONTINUOUS_THICKNESS * contact.thickness;
         let mut x1 = x0.clone();
         while st.ccd_rounds < CONTINUOUS_ROUNDS {
             for ((e, a), b) in x1.iter_mut().zip(&x0).zip(&v) {
@@ -366,13 +374,13 @@ impl Simulation {
             if self.opts.self_collision {
                 let (c0, c1) = (&x0[..n], &x1[..n]);
                 let found = timed(&mut st.detect_time, || {
-                    self.continuous.continuous(c0, c1, separation)
+                    self.queries.continuous(c0, c1, thickness, &mut det)
                 })?;
                 hits = response::impact_contacts(self.cloth.mesh(), c0, c1, &found);
             }
             if let Some((obs, bvh)) = self.obstacles.as_mut() {
                 let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
-                let found = timed(&mut st.obstacle_time, || c.continuous(&x0, &x1, separation));
+                let found = timed(&mut st.obstacle_time, || c.continuous(&x0, &x1, thickness));
                 hits.extend(response::cross_impact_contacts(c.meshes, &x0, &x1, &found));
             }
             st.ccd_impacts += hits.len() as u64;
@@ -391,7 +399,8 @@ impl Simulation {
         }
 
         // 6. Correction.
-        self.correct(&x0[..n], &o0, &o1, &mut st)?;
+        self.correct(&x0[..n], &o0, &o1, &mut st, &mut det)?;
+        st.detection = det;
         self.time += h;
         self.steps += 1;
         st.step_time = t_step.elapsed().as_secs_f64();
@@ -407,6 +416,7 @@ impl Simulation {
         o0: &[DVec3],
         o1: &[DVec3],
         st: &mut StepStats,
+        det: &mut FrameStats,
     ) -> Result<()> {
         let n = x0.len();
         let start = StepStart {
@@ -420,12 +430,14 @@ impl Simulation {
         let mut combined: Vec<DVec3> = self.x.iter().chain(o1).copied().collect();
         loop {
             st.correction_rounds += 1;
-            let mut all = if self.opts.self_collision {
-                timed(&mut st.detect_time, || self.checker.detect(&self.x))?.pairs
+            let cones = self.cones();
+            let all = if self.opts.self_collision {
+                timed(&mut st.detect_time, || {
+                    self.queries.intersections(&self.x, cones, det)
+                })?
             } else {
                 Vec::new()
             };
-            all.sort_unstable();
             let pairs: Vec<[u32; 2]> = all
                 .iter()
                 .copied()

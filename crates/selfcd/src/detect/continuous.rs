@@ -1,23 +1,26 @@
 //! Continuous query: between two positions of the mesh (each vertex moving
 //! linearly over the step), every vertex-triangle and edge-edge pair that may
-//! come within a separation `xi`, with a conservative time of impact.
+//! come within a thickness `thickness`, with a conservative time of impact.
 //!
 //! Broad phase: the BVH refitted to swept triangle boxes (no cone culling:
-//! cones say nothing about motion), boxes within `xi`. Narrow phase: additive
+//! cones say nothing about motion), boxes within `thickness`. Narrow phase: additive
 //! CCD ([`crate::geom::ccd`]) on each element pair, once per pair (owners).
-//! No false negatives: every pair that comes within `xi` during the step is
+//! No false negatives: every pair that comes within `thickness` during the step is
 //! reported, at a time no later than when it does.
 
 use super::hierarchy::BvhDetector;
 use super::narrow::{for_each_owned_pair, ElementPair};
 use super::Detector;
 use crate::bvh::traverse::{self_traverse, LeafVisitor, TraverseOptions};
+use crate::bvh::Bvh;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{time_of_impact, Pair};
+use crate::geom::ccd::{time_of_impact, StencilKind};
+use crate::geom::Aabb;
 use crate::mesh::Mesh;
+use crate::stats::Counters;
 use glam::DVec3;
 
-/// An element pair that may come within the separation during the step.
+/// An element pair that may come within the thickness during the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Impact {
     /// The elements: (vertex, triangle) or (edge, edge) with the smaller edge first.
@@ -53,7 +56,7 @@ pub fn element_toi(
     x0: &[DVec3],
     x1: &[DVec3],
     pair: ElementPair,
-    xi: f64,
+    thickness: f64,
 ) -> Option<f64> {
     let (kind, ids) = match pair {
         ElementPair::VertexTriangle(v, t) => {
@@ -61,7 +64,7 @@ pub fn element_toi(
             if tri.contains(&v) {
                 return None;
             }
-            (Pair::PointTriangle, [v, tri[0], tri[1], tri[2]])
+            (StencilKind::VertexTriangle, [v, tri[0], tri[1], tri[2]])
         }
         ElementPair::EdgeEdge(e0, e1) => {
             let edges = &mesh.topology().edges;
@@ -69,11 +72,11 @@ pub fn element_toi(
             if a == c || a == d || b == c || b == d {
                 return None;
             }
-            (Pair::EdgeEdge, [a, b, c, d])
+            (StencilKind::EdgeEdge, [a, b, c, d])
         }
     };
     let at = |x: &[DVec3]| ids.map(|i| x[i as usize]);
-    time_of_impact(kind, at(x0), at(x1), xi)
+    time_of_impact(kind, at(x0), at(x1), thickness)
 }
 
 /// The narrow phase of the continuous query on one triangle pair.
@@ -81,7 +84,7 @@ struct Continuous<'a> {
     mesh: &'a Mesh,
     x0: &'a [DVec3],
     x1: &'a [DVec3],
-    xi: f64,
+    thickness: f64,
 }
 
 impl LeafVisitor for Continuous<'_> {
@@ -90,11 +93,8 @@ impl LeafVisitor for Continuous<'_> {
 
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Impact>) {
         for_each_owned_pair(self.mesh, a, b, |pair| {
-            let pair = match pair {
-                ElementPair::EdgeEdge(e0, e1) => ElementPair::EdgeEdge(e0.min(e1), e0.max(e1)),
-                vt => vt,
-            };
-            if let Some(toi) = element_toi(self.mesh, self.x0, self.x1, pair, self.xi) {
+            let pair = pair.canonical();
+            if let Some(toi) = element_toi(self.mesh, self.x0, self.x1, pair, self.thickness) {
                 out.push(Impact { pair, toi });
             }
         });
@@ -107,33 +107,9 @@ fn key(i: &Impact) -> (u32, u32) {
     }
 }
 
-impl BvhDetector {
-    /// Every element pair that may come within `separation` (>= 0) while the
-    /// mesh moves linearly from `x0` to `x1`, with conservative times of
-    /// impact. Leaves the hierarchy fitted to the swept boxes (the next
-    /// `detect` refits it).
-    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], separation: f64) -> Result<Impacts> {
-        let mesh = self.mesh().clone();
-        mesh.check_positions(x0)?;
-        mesh.check_positions(x1)?;
-        if !(separation >= 0.0 && separation.is_finite()) {
-            return Err(Error::InvalidParameter(format!(
-                "separation must be finite and >= 0, got {separation}"
-            )));
-        }
-        self.refit_swept(x0, x1);
-        let opts = TraverseOptions {
-            cones: false,
-            contour: false,
-            gap: separation,
-        };
-        let visitor = Continuous {
-            mesh: &mesh,
-            x0,
-            x1,
-            xi: separation,
-        };
-        let (items, _) = self_traverse(self.bvh(), &mesh, x1, opts, &visitor);
+impl Impacts {
+    /// Splits raw impacts by kind and sorts each list by element pair.
+    pub(crate) fn from_items(items: Vec<Impact>) -> Impacts {
         let mut out = Impacts::default();
         for i in items {
             match i.pair {
@@ -143,6 +119,76 @@ impl BvhDetector {
         }
         out.vertex_triangle.sort_unstable_by_key(key);
         out.edge_edge.sort_unstable_by_key(key);
-        Ok(out)
+        out
+    }
+}
+
+/// Checks the arguments of a continuous query.
+pub(crate) fn check_args(mesh: &Mesh, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Result<()> {
+    mesh.check_positions(x0)?;
+    mesh.check_positions(x1)?;
+    if !(thickness >= 0.0 && thickness.is_finite()) {
+        return Err(Error::InvalidParameter(format!(
+            "thickness must be finite and >= 0, got {thickness}"
+        )));
+    }
+    Ok(())
+}
+
+/// The continuous query on a hierarchy already fitted to the swept boxes
+/// ([`Bvh::refit_swept`]) of the motion `x0 -> x1`.
+pub(crate) fn swept_query(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    thickness: f64,
+) -> (Impacts, Counters) {
+    let opts = TraverseOptions {
+        cones: false,
+        contour: false,
+        gap: thickness,
+    };
+    let visitor = Continuous {
+        mesh,
+        x0,
+        x1,
+        thickness,
+    };
+    let (items, counters) = self_traverse(bvh, mesh, x1, opts, &visitor);
+    (Impacts::from_items(items), counters)
+}
+
+/// Time of impact of a candidate `pair` (canonical) exactly as the swept
+/// query computes it, box test included: `None` where the swept query would
+/// not report it. So a query over any candidate superset equals the swept query.
+pub(crate) fn candidate_toi(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    pair: ElementPair,
+    thickness: f64,
+) -> Option<Impact> {
+    let swept = |t: u32| {
+        Aabb::from_points(&mesh.corners(x0, t as usize))
+            .union(&Aabb::from_points(&mesh.corners(x1, t as usize)))
+    };
+    let [a, b] = pair.visiting_triangles(mesh);
+    if a == b || !swept(a).within(&swept(b), thickness) {
+        return None;
+    }
+    element_toi(mesh, x0, x1, pair, thickness).map(|toi| Impact { pair, toi })
+}
+
+impl BvhDetector {
+    /// Every element pair that may come within `thickness` (>= 0) while the
+    /// mesh moves linearly from `x0` to `x1`, with conservative times of
+    /// impact. Leaves the hierarchy fitted to the swept boxes (the next
+    /// `detect` refits it).
+    pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Result<Impacts> {
+        let mesh = self.mesh().clone();
+        check_args(&mesh, x0, x1, thickness)?;
+        self.refit_swept(x0, x1);
+        Ok(swept_query(self.bvh(), &mesh, x0, x1, thickness).0)
     }
 }

@@ -9,9 +9,12 @@
 //! | `sensor-gated`      | particle sensor, then a BVH method  | no: misses counted by `compare` |
 //!
 //! Proximity (thickness > 0) and continuous queries ([`continuous`]) use the
-//! same hierarchy with boxes only.
+//! same hierarchy with boxes only. [`coherent`] serves a sequence of frames
+//! (the simulator): one hierarchy for all three queries, and a candidate set
+//! reused while nothing moved far enough to change the answers.
 
 pub mod brute;
+pub mod coherent;
 pub mod compare;
 pub mod continuous;
 pub mod first;

@@ -7,7 +7,7 @@
 
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
-use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
+use crate::geom::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -132,13 +132,27 @@ impl<'a> Proximity<'a> {
         Ok(())
     }
 
+    /// Appends `pair` to `out` when it is closer than the thickness (incident
+    /// pairs never are). Every query path runs this same arithmetic, so cached
+    /// and fresh queries give bit-identical contacts.
+    pub(crate) fn test(&self, pair: ElementPair, out: &mut Vec<Near>) {
+        match pair {
+            ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
+            ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
+        }
+    }
+
     fn vertex_triangle(&self, v: u32, t: u32, out: &mut Vec<Near>) {
         let tri = self.mesh.triangles()[t as usize];
         if tri.contains(&v) {
             return;
         }
         let [a, b, c] = self.mesh.corners(self.positions, t as usize);
-        let (d2, bary) = point_triangle_distance2(self.positions[v as usize], a, b, c);
+        let p = self.positions[v as usize];
+        if hulls_apart(&[p], &[a, b, c], self.thickness) {
+            return;
+        }
+        let (d2, bary) = point_triangle_distance2(p, a, b, c);
         if d2 < self.thickness * self.thickness {
             out.push(Near::Vt(VertexTriangle {
                 vertex: v,
@@ -158,6 +172,9 @@ impl<'a> Proximity<'a> {
             return;
         }
         let p = |i: u32| self.positions[i as usize];
+        if hulls_apart(&[p(a), p(b)], &[p(c), p(d)], self.thickness) {
+            return;
+        }
         let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
         if d2 < self.thickness * self.thickness {
             out.push(Near::Ee(EdgeEdge {
@@ -178,10 +195,7 @@ impl LeafVisitor for Proximity<'_> {
             return; // the output guard: the query fails in check_output
         }
         let before = out.len();
-        for_each_owned_pair(self.mesh, a, b, |pair| match pair {
-            ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
-            ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
-        });
+        for_each_owned_pair(self.mesh, a, b, |pair| self.test(pair, out));
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);
         }
@@ -226,6 +240,62 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
         {
             f(ElementPair::EdgeEdge(ea, eb));
         }
+    }
+}
+
+impl ElementPair {
+    /// The pair with its edges in increasing order (vertex-triangle pairs unchanged):
+    /// the one spelling every query reports.
+    #[inline]
+    pub fn canonical(self) -> ElementPair {
+        match self {
+            ElementPair::EdgeEdge(a, b) => ElementPair::EdgeEdge(a.min(b), a.max(b)),
+            vt => vt,
+        }
+    }
+
+    /// The triangle pair whose visit reports this element pair (see
+    /// [`for_each_owned_pair`]): the vertex's or each edge's owner triangle,
+    /// and for a vertex the triangle itself.
+    #[inline]
+    pub fn visiting_triangles(self, mesh: &Mesh) -> [u32; 2] {
+        let topo = mesh.topology();
+        match self {
+            ElementPair::VertexTriangle(v, t) => [topo.vertex_tris.row(v as usize)[0], t],
+            ElementPair::EdgeEdge(a, b) => [
+                topo.edge_tris.row(a as usize)[0],
+                topo.edge_tris.row(b as usize)[0],
+            ],
+        }
+    }
+
+    /// The distance of the two elements at `x` when they share no vertex and
+    /// are closer than `reach`, else `None`.
+    pub fn distance_within(self, mesh: &Mesh, x: &[DVec3], reach: f64) -> Option<f64> {
+        let p = |i: u32| x[i as usize];
+        let d2 = match self {
+            ElementPair::VertexTriangle(v, t) => {
+                let tri = mesh.triangles()[t as usize];
+                let [a, b, c] = tri.map(p);
+                if tri.contains(&v) || hulls_apart(&[p(v)], &[a, b, c], reach) {
+                    return None;
+                }
+                point_triangle_distance2(p(v), a, b, c).0
+            }
+            ElementPair::EdgeEdge(e0, e1) => {
+                let edges = &mesh.topology().edges;
+                let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
+                if a == c || a == d || b == c || b == d {
+                    return None;
+                }
+                let ([a, b], [c, d]) = ([p(a), p(b)], [p(c), p(d)]);
+                if hulls_apart(&[a, b], &[c, d], reach) {
+                    return None;
+                }
+                segment_segment_distance2(a, b, c, d).0
+            }
+        };
+        (d2 < reach * reach).then(|| d2.sqrt())
     }
 }
 

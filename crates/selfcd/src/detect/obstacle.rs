@@ -14,7 +14,7 @@
 //! ([`intersections`]). The obstacle's own pairs are never tested.
 
 use crate::bvh::Bvh;
-use crate::geom::ccd::{time_of_impact, Pair};
+use crate::geom::ccd::{time_of_impact, StencilKind};
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
 use crate::geom::tri_tri::triangles_intersect;
 use crate::mesh::Mesh;
@@ -47,21 +47,21 @@ impl Meshes<'_> {
 
     /// The pair's four points in the combined index space, and its kind:
     /// point first for a vertex-triangle pair, the cloth side first always.
-    pub fn stencil(&self, pair: CrossPair) -> (Pair, [u32; 4]) {
+    pub fn stencil(&self, pair: CrossPair) -> (StencilKind, [u32; 4]) {
         let o = self.offset();
         match pair {
             CrossPair::ClothVertex(v, t) => {
                 let [a, b, c] = self.obstacle.triangles()[t as usize];
-                (Pair::PointTriangle, [v, a + o, b + o, c + o])
+                (StencilKind::VertexTriangle, [v, a + o, b + o, c + o])
             }
             CrossPair::ObstacleVertex(v, t) => {
                 let [a, b, c] = self.cloth.triangles()[t as usize];
-                (Pair::PointTriangle, [v + o, a, b, c])
+                (StencilKind::VertexTriangle, [v + o, a, b, c])
             }
             CrossPair::Edges(e, f) => {
                 let [a, b] = self.cloth.topology().edges[e as usize];
                 let [c, d] = self.obstacle.topology().edges[f as usize];
-                (Pair::EdgeEdge, [a, b, c + o, d + o])
+                (StencilKind::EdgeEdge, [a, b, c + o, d + o])
             }
         }
     }
@@ -148,8 +148,8 @@ pub fn proximity(m: Meshes, x: &[DVec3], pairs: &[CrossPair], d: f64) -> Vec<Nea
             let (kind, ids) = m.stencil(pair);
             let [p, a, b, c] = ids.map(|i| x[i as usize]);
             let (d2, params) = match kind {
-                Pair::PointTriangle => point_triangle_distance2(p, a, b, c),
-                Pair::EdgeEdge => {
+                StencilKind::VertexTriangle => point_triangle_distance2(p, a, b, c),
+                StencilKind::EdgeEdge => {
                     let (d2, s, t) = segment_segment_distance2(p, a, b, c);
                     (d2, [s, t, 0.0])
                 }
@@ -163,7 +163,7 @@ pub fn proximity(m: Meshes, x: &[DVec3], pairs: &[CrossPair], d: f64) -> Vec<Nea
         .collect()
 }
 
-/// An element pair that may come within the separation during the step.
+/// An element pair that may come within the thickness during the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Impact {
     /// The elements.
@@ -172,7 +172,7 @@ pub struct Impact {
     pub toi: f64,
 }
 
-/// The pairs of `pairs` that come within `xi` while every combined position
+/// The pairs of `pairs` that come within `thickness` while every combined position
 /// moves linearly from `x0` to `x1`, with conservative times of impact (the
 /// engine's continuous query, [`time_of_impact`]).
 pub fn continuous(
@@ -180,14 +180,14 @@ pub fn continuous(
     x0: &[DVec3],
     x1: &[DVec3],
     pairs: &[CrossPair],
-    xi: f64,
+    thickness: f64,
 ) -> Vec<Impact> {
     pairs
         .iter()
         .filter_map(|&pair| {
             let (kind, ids) = m.stencil(pair);
             let at = |x: &[DVec3]| ids.map(|i| x[i as usize]);
-            time_of_impact(kind, at(x0), at(x1), xi).map(|toi| Impact { pair, toi })
+            time_of_impact(kind, at(x0), at(x1), thickness).map(|toi| Impact { pair, toi })
         })
         .collect()
 }

@@ -1,30 +1,32 @@
 //! Continuous collision detection: the first time two moving primitives come
-//! within a separation `xi`, conservatively (never later than the true time).
+//! within a thickness `thickness`, conservatively (never later than the true time).
 //!
 //! After additive CCD (Li et al., "Codimensional Incremental Potential
 //! Contact", 2021): with every point moving linearly from `x` to `x + p` over t
 //! in [0, 1], the distance between the primitives can shrink by at most `l_p`
 //! per unit of t, where `l_p` bounds the relative speed (common motion
-//! removed). Advancing t by a fraction of (d - xi) / l_p can therefore never
+//! removed). Advancing t by a fraction of (d - thickness) / l_p can therefore never
 //! step over a contact: the returned time is a lower bound of the true time of
 //! impact. Where ACCD stops at a fixed fraction of the initial gap (what a
 //! solver's line search wants), this query goes on until the gap is below
 //! `RESOLUTION` times the initial one, so it reports only pairs that do come
-//! within `xi` (up to that resolution).
+//! within `thickness` (up to that resolution).
 
-use super::distance::{point_triangle_distance2, segment_segment_distance2};
+use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use glam::DVec3;
 
-/// Which primitive pair four points form.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Pair {
-    /// Point `0` against triangle `1, 2, 3`.
-    PointTriangle,
-    /// Segment `0-1` against segment `2-3`.
+/// Which element pair the four vertices of a stencil form (the one kind tag of
+/// proximity contacts, continuous queries and the response, after
+/// ipc-toolkit's collision stencils).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StencilKind {
+    /// Vertex `0` against triangle `1, 2, 3`.
+    VertexTriangle,
+    /// Edge `0-1` against edge `2-3`.
     EdgeEdge,
 }
 
-/// The query reports an impact once the gap (distance - xi) is below this
+/// The query reports an impact once the gap (distance - thickness) is below this
 /// fraction of its initial value.
 const RESOLUTION: f64 = 1e-6;
 
@@ -34,33 +36,61 @@ const STEP: f64 = 0.9;
 /// Iteration cap: past it the current (still conservative) time is returned.
 const MAX_ITERATIONS: u32 = 100_000;
 
-fn distance2(pair: Pair, x: &[DVec3; 4]) -> f64 {
+fn distance2(pair: StencilKind, x: &[DVec3; 4]) -> f64 {
     match pair {
-        Pair::PointTriangle => point_triangle_distance2(x[0], x[1], x[2], x[3]).0,
-        Pair::EdgeEdge => segment_segment_distance2(x[0], x[1], x[2], x[3]).0,
+        StencilKind::VertexTriangle => point_triangle_distance2(x[0], x[1], x[2], x[3]).0,
+        StencilKind::EdgeEdge => segment_segment_distance2(x[0], x[1], x[2], x[3]).0,
     }
 }
 
 /// Bound on how fast the distance of the pair can shrink, with the mean motion removed.
-fn speed_bound(pair: Pair, p: &[DVec3; 4]) -> f64 {
+fn speed_bound(pair: StencilKind, p: &[DVec3; 4]) -> f64 {
     let mean = (p[0] + p[1] + p[2] + p[3]) / 4.0;
     let l = p.map(|q| (q - mean).length());
     match pair {
-        Pair::PointTriangle => l[0] + l[1].max(l[2]).max(l[3]),
-        Pair::EdgeEdge => l[0].max(l[1]) + l[2].max(l[3]),
+        StencilKind::VertexTriangle => l[0] + l[1].max(l[2]).max(l[3]),
+        StencilKind::EdgeEdge => l[0].max(l[1]) + l[2].max(l[3]),
     }
 }
 
+/// True when the two sides' swept hulls stay farther apart than `thickness` plus the
+/// resolution the iteration below reports at (`RESOLUTION` of the initial gap,
+/// which is at most the swept box's diagonal): then the iteration would return
+/// `None` too, and this cull answers the same in a few comparisons.
+fn swept_apart(pair: StencilKind, x0: &[DVec3; 4], x1: &[DVec3; 4], thickness: f64) -> bool {
+    let split = match pair {
+        StencilKind::VertexTriangle => 1,
+        StencilKind::EdgeEdge => 2,
+    };
+    let bounds = |r: std::ops::Range<usize>| {
+        r.fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), i| (lo.min(x0[i]).min(x1[i]), hi.max(x0[i]).max(x1[i])),
+        )
+    };
+    let ((la, ha), (lb, hb)) = (bounds(0..split), bounds(split..4));
+    let diag = (ha.max(hb) - la.min(lb)).length();
+    hulls_apart(&[la, ha], &[lb, hb], thickness + 2.0 * RESOLUTION * diag)
+}
+
 /// First time t in [0, 1] at which the pair, moving linearly from `x0` to `x1`,
-/// comes within distance `xi` (>= 0). Returns `None` when it stays farther
-/// than `xi` (plus `RESOLUTION` of the initial gap) for the whole step,
-/// `Some(0.0)` when it starts within `xi`, and otherwise a time no later than
+/// comes within distance `thickness` (>= 0). Returns `None` when it stays farther
+/// than `thickness` (plus `RESOLUTION` of the initial gap) for the whole step,
+/// `Some(0.0)` when it starts within `thickness`, and otherwise a time no later than
 /// the true time of impact.
-pub fn time_of_impact(pair: Pair, x0: [DVec3; 4], x1: [DVec3; 4], xi: f64) -> Option<f64> {
+pub fn time_of_impact(
+    pair: StencilKind,
+    x0: [DVec3; 4],
+    x1: [DVec3; 4],
+    thickness: f64,
+) -> Option<f64> {
+    if swept_apart(pair, &x0, &x1, thickness) {
+        return None;
+    }
     let p: [DVec3; 4] = std::array::from_fn(|i| x1[i] - x0[i]);
     let gap = |x: &[DVec3; 4]| {
         let d2 = distance2(pair, x);
-        (d2 - xi * xi) / (d2.sqrt() + xi)
+        (d2 - thickness * thickness) / (d2.sqrt() + thickness)
     };
     let mut x = x0;
     let g0 = gap(&x);
@@ -73,6 +103,11 @@ pub fn time_of_impact(pair: Pair, x0: [DVec3; 4], x1: [DVec3; 4], xi: f64) -> Op
     }
     let target = RESOLUTION * g0;
     let (mut t, mut step) = (0.0, STEP * g0 / lp);
+    if step > 1.0 {
+        // The first advance already leaves the step (what the loop would
+        // find after one more distance evaluation).
+        return None;
+    }
     for _ in 0..MAX_ITERATIONS {
         for (xi_, pi) in x.iter_mut().zip(&p) {
             *xi_ += step * *pi;
@@ -108,12 +143,15 @@ mod tests {
         // The point crosses the plane z = 0 at t = 0.25, inside the triangle.
         let x0 = [v(0.2, 0.2, 1.0), tri[0], tri[1], tri[2]];
         let x1 = [v(0.2, 0.2, -3.0), tri[0], tri[1], tri[2]];
-        let t = time_of_impact(Pair::PointTriangle, x0, x1, 0.0).expect("must collide");
+        let t = time_of_impact(StencilKind::VertexTriangle, x0, x1, 0.0).expect("must collide");
         assert!(t <= 0.25 && t > 0.2499, "t = {t}");
         // Passing beside the triangle: no impact.
         let miss = [v(2.0, 2.0, 1.0), tri[0], tri[1], tri[2]];
         let miss1 = [v(2.0, 2.0, -3.0), tri[0], tri[1], tri[2]];
-        assert_eq!(time_of_impact(Pair::PointTriangle, miss, miss1, 0.0), None);
+        assert_eq!(
+            time_of_impact(StencilKind::VertexTriangle, miss, miss1, 0.0),
+            None
+        );
     }
 
     #[test]
@@ -132,12 +170,15 @@ mod tests {
             v(0., -1., 1.) + shift,
             v(0., 1., 1.) + shift,
         ];
-        let t = time_of_impact(Pair::EdgeEdge, x0, x1, 0.0).unwrap();
+        let t = time_of_impact(StencilKind::EdgeEdge, x0, x1, 0.0).unwrap();
         assert!(t <= 0.5 && t > 0.4999, "t = {t}");
-        // Starting within the separation: time 0.
-        assert_eq!(time_of_impact(Pair::EdgeEdge, x0, x0, 3.0), Some(0.0));
+        // Starting within the thickness: time 0.
+        assert_eq!(
+            time_of_impact(StencilKind::EdgeEdge, x0, x0, 3.0),
+            Some(0.0)
+        );
         // Not moving: no impact.
-        assert_eq!(time_of_impact(Pair::EdgeEdge, x0, x0, 0.1), None);
+        assert_eq!(time_of_impact(StencilKind::EdgeEdge, x0, x0, 0.1), None);
     }
 
     #[test]
@@ -146,20 +187,20 @@ mod tests {
         let mut hits = 0;
         for k in 0..400 {
             let pair = if k % 2 == 0 {
-                Pair::PointTriangle
+                StencilKind::VertexTriangle
             } else {
-                Pair::EdgeEdge
+                StencilKind::EdgeEdge
             };
             let x0: [DVec3; 4] = std::array::from_fn(|_| rng.direction() * rng.unit());
             let x1: [DVec3; 4] =
                 std::array::from_fn(|i| x0[i] + rng.direction() * 1.5 * rng.unit());
-            let xi = 0.05;
-            // First sampled time within xi (the true time is at most this).
+            let thickness = 0.05;
+            // First sampled time within thickness (the true time is at most this).
             let first = (0..=2000).map(|i| i as f64 / 2000.0).find(|&t| {
                 let x: [DVec3; 4] = std::array::from_fn(|i| x0[i].lerp(x1[i], t));
-                distance2(pair, &x) < xi * xi
+                distance2(pair, &x) < thickness * thickness
             });
-            let toi = time_of_impact(pair, x0, x1, xi);
+            let toi = time_of_impact(pair, x0, x1, thickness);
             if let Some(ts) = first {
                 hits += 1;
                 let t = toi
@@ -170,9 +211,9 @@ mod tests {
                 );
             }
             if let Some(t) = toi {
-                // What it reports is a real approach: by t the pair is not yet within xi.
+                // What it reports is a real approach: by t the pair is not yet within thickness.
                 let x: [DVec3; 4] = std::array::from_fn(|i| x0[i].lerp(x1[i], t));
-                assert!(t == 0.0 || distance2(pair, &x) >= xi * xi * 0.999_999);
+                assert!(t == 0.0 || distance2(pair, &x) >= thickness * thickness * 0.999_999);
             }
         }
         assert!(

@@ -1,0 +1,159 @@
+//! Proximity and continuous queries, fresh and coherent, best of REPS.
+//!
+//! ```text
+//! cargo run --release -p selfcd --example queries -- SIZE STATE [REPS] [D] [SKIN]
+//! cargo run --release -p selfcd --example queries -- FILE.obj [REPS] [D] [SKIN]
+//! ```
+//! A benchmark grid deformed to STATE, or a mesh file at its own positions.
+//! D: proximity thickness and SKIN: the coherent candidate set's skin, both
+//! in median edge lengths (defaults 0.6 and 0.25, as scripts/bench_peers.py:
+//! d = 0.6 median edges, a continuous step of a 0.5-edge wave of wavelength
+//! 16 edges, per-frame motion 0.05 edges).
+//!
+//! Rows: proximity fresh (refit + boxes-only traversal), coherent first call
+//! (candidate build) and coherent on a frame moved by the per-frame motion;
+//! continuous fresh and coherent on the wave step and on a step that does not
+//! move. Each coherent row says whether it reused the candidate set.
+use selfcd::bvh::traverse::{self_traverse, TraverseOptions};
+use selfcd::bvh::{build::build, Bvh};
+use selfcd::detect::coherent::SelfQueries;
+use selfcd::detect::hierarchy::BvhDetector;
+use selfcd::detect::narrow::{collect_proximity, Proximity, DEFAULT_MAX_CONTACTS};
+use selfcd::scene::{grid, grid_side_for, BenchState};
+use selfcd::{DVec3, FrameStats, Mesh, Method};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[path = "common/obj.rs"]
+mod obj;
+
+/// The mesh, the frame, and the remaining arguments.
+fn frame(a: &[String]) -> (Arc<Mesh>, Vec<DVec3>, &[String]) {
+    if a[1].ends_with(".obj") {
+        let (v, f) = obj::read_obj(&a[1]);
+        let mesh = Arc::new(Mesh::new(v, f).unwrap());
+        let p = mesh.rest().to_vec();
+        return (mesh, p, &a[2..]);
+    }
+    let n: usize = a[1].parse().unwrap();
+    let state: BenchState = a[2].parse().unwrap();
+    let side = grid_side_for(n);
+    let (v, f) = grid(side, 1.0);
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let p = state.deformation(side).apply(mesh.rest());
+    (mesh, p, &a[3..])
+}
+
+/// Median edge length at positions `x`.
+fn median_edge(mesh: &Mesh, x: &[DVec3]) -> f64 {
+    let mut l: Vec<f64> = mesh
+        .topology()
+        .edges
+        .iter()
+        .map(|&[a, b]| (x[a as usize] - x[b as usize]).length())
+        .collect();
+    l.sort_by(f64::total_cmp);
+    l[l.len() / 2]
+}
+
+/// scripts/bench_peers.py's `wave`: each coordinate a sine of the next one.
+fn wave(x: &[DVec3], amplitude: f64, wavelength: f64, phase: f64) -> Vec<DVec3> {
+    let k = 2.0 * std::f64::consts::PI / wavelength;
+    x.iter()
+        .map(|p| {
+            *p + amplitude
+                * DVec3::new(
+                    (k * p.y + phase).sin(),
+                    (k * p.z + phase + 1.0).sin(),
+                    (k * p.x + phase + 2.0).sin(),
+                )
+        })
+        .collect()
+}
+
+/// Best wall time (ms) of `reps` runs of `f`, and its last result.
+fn best<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut t = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        out = Some(f());
+        t = t.min(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    (t, out.unwrap())
+}
+
+fn fresh_proximity(bvh: &mut Bvh, mesh: &Mesh, x: &[DVec3], d: f64) -> usize {
+    bvh.refit(mesh, x);
+    let near = Proximity::new(mesh, x, d, DEFAULT_MAX_CONTACTS);
+    let opts = TraverseOptions {
+        cones: false,
+        contour: false,
+        gap: d,
+    };
+    let (items, _) = self_traverse(bvh, mesh, x, opts, &near);
+    let c = collect_proximity(items);
+    c.vertex_triangle.len() + c.edge_edge.len()
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let (mesh, x, rest) = frame(&a);
+    let reps: usize = rest.first().map_or(5, |s| s.parse().unwrap());
+    let d_edges: f64 = rest.get(1).map_or(0.6, |s| s.parse().unwrap());
+    let skin_edges: f64 = rest.get(2).map_or(0.25, |s| s.parse().unwrap());
+    let e = median_edge(&mesh, &x);
+    let d = d_edges * e;
+    let moved = wave(&x, 0.05 * e, 16.0 * e, 0.7);
+    let step = wave(&x, 0.5 * e, 16.0 * e, 0.3);
+    println!(
+        "{} triangles, median edge {e:.4e}, d {d_edges} edges, skin {skin_edges} edges, threads {}, best of {reps}",
+        mesh.n_triangles(),
+        rayon::current_num_threads()
+    );
+
+    let mut bvh = build(&mesh);
+    let (ms, n) = best(reps, || fresh_proximity(&mut bvh, &mesh, &x, d));
+    println!("proximity fresh                 {ms:9.3} ms  {n} pairs");
+    let coherent = || SelfQueries::new(mesh.clone(), skin_edges * e).unwrap();
+    let count = |c: &selfcd::detect::ProximityContacts| c.vertex_triangle.len() + c.edge_edge.len();
+    let (ms, (n, s)) = best(reps, || {
+        let mut q = coherent();
+        let mut s = FrameStats::default();
+        let c = q.proximity(&x, d, &mut s).unwrap();
+        (count(&c), s)
+    });
+    println!(
+        "proximity coherent, first call {ms:9.3} ms  {n} pairs (incl. hierarchy build; {} candidates)",
+        s.candidates
+    );
+    let mut q = coherent();
+    q.proximity(&x, d, &mut FrameStats::default()).unwrap();
+    let (ms, (n, s)) = best(reps, || {
+        let mut s = FrameStats::default();
+        let c = q.proximity(&moved, d, &mut s).unwrap();
+        (count(&c), s)
+    });
+    println!(
+        "proximity coherent, next frame {ms:9.3} ms  {n} pairs (reused {}, built {})",
+        s.candidate_reuses, s.candidate_builds
+    );
+
+    let mut det = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
+    for (name, x1) in [("wave step", &step), ("no motion", &x)] {
+        let (ms, n) = best(reps, || {
+            let i = det.continuous(&x, x1, 0.0).unwrap();
+            i.vertex_triangle.len() + i.edge_edge.len()
+        });
+        println!("continuous fresh, {name:9}      {ms:9.3} ms  {n} pairs");
+        let (ms, (n, s)) = best(reps, || {
+            let mut s = FrameStats::default();
+            let i = q.continuous(&x, x1, 0.0, &mut s).unwrap();
+            (i.vertex_triangle.len() + i.edge_edge.len(), s)
+        });
+        println!(
+            "continuous coherent, {name:9}   {ms:9.3} ms  {n} pairs (reused {}, swept {})",
+            s.candidate_reuses, s.swept_queries
+        );
+    }
+}
