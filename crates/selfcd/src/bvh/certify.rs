@@ -222,3 +222,93 @@ impl Cull for ContourCull<'_> {
         ok
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::build::build;
+    use crate::bvh::traverse::traverse;
+    use crate::detect::narrow::Intersect;
+
+    /// A strip of `n` quads winding `turns` times around the z axis while
+    /// rising slowly (a spiral ramp): every normal within a few degrees of +z,
+    /// no two triangles touching, but its projection along z overlaps itself
+    /// once `turns` > 1.
+    fn ramp(n: usize, turns: f64) -> Mesh {
+        let mut v = Vec::new();
+        for i in 0..=n {
+            let t = std::f64::consts::TAU * turns * i as f64 / n as f64;
+            for r in [1.0, 2.0] {
+                v.push([r * t.cos(), r * t.sin(), 0.05 * t]);
+            }
+        }
+        let q = |i: usize, k: usize| (2 * i + k) as u32;
+        let f = (0..n)
+            .flat_map(|i| {
+                [
+                    [q(i, 0), q(i, 1), q(i + 1, 1)],
+                    [q(i, 0), q(i + 1, 1), q(i + 1, 0)],
+                ]
+            })
+            .collect();
+        Mesh::new(v, f).unwrap()
+    }
+
+    fn root_culled(mesh: &Mesh) -> (bool, bool) {
+        let mut bvh = build(mesh);
+        bvh.refit(mesh, mesh.rest());
+        let root = bvh.root();
+        let cones = ConeCull {
+            cones: &bvh.cones,
+            patches: &bvh.patches,
+        };
+        let contour = ContourCull::new(&bvh, mesh, mesh.rest());
+        let mut c = Counters::default();
+        (
+            cones.self_culled(root, &mut (), &mut c),
+            contour.self_culled(root, &mut ContourScratch::default(), &mut c),
+        )
+    }
+
+    #[test]
+    fn contour_refuses_a_ramp_that_overlaps_in_projection() {
+        // Half a turn: a height field, culled by both; 1.2 turns: the cone
+        // alone still culls, the contour test refuses.
+        assert_eq!(root_culled(&ramp(64, 0.5)), (true, true));
+        assert_eq!(root_culled(&ramp(64, 1.2)), (true, false));
+    }
+
+    #[test]
+    fn culls_do_not_change_the_pairs() {
+        // The ramp's turns made to cross (height 0.2 sin(1.3 t) at angle t):
+        // every cull gives the boxes-only pairs.
+        let (n, turns) = (200, 1.6);
+        let mesh = ramp(n, turns);
+        let p: Vec<DVec3> = (0..mesh.rest().len())
+            .map(|k| {
+                let t = std::f64::consts::TAU * turns * (k / 2) as f64 / n as f64;
+                let x = mesh.rest()[k];
+                DVec3::new(x.x, x.y, 0.2 * (1.3 * t).sin())
+            })
+            .collect();
+        let mut bvh = build(&mesh);
+        bvh.refit(&mesh, &p);
+        let visitor = Intersect {
+            mesh: &mesh,
+            positions: &p,
+        };
+        let mut want = traverse(&bvh, &mesh, 0.0, &BoxesOnly, &visitor).0;
+        want.sort_unstable();
+        assert!(!want.is_empty());
+        let mut got = traverse(
+            &bvh,
+            &mesh,
+            0.0,
+            &ContourCull::new(&bvh, &mesh, &p),
+            &visitor,
+        )
+        .0;
+        got.sort_unstable();
+        assert_eq!(got, want);
+    }
+}
