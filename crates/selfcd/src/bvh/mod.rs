@@ -7,6 +7,7 @@
 //! smaller id than its parent and the root is the last node.
 
 pub mod build;
+pub mod certify;
 pub mod patch;
 pub mod refit;
 pub mod traverse;

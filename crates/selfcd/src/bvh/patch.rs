@@ -1,32 +1,12 @@
-//! Node patches: contours, boundary vertices and Euler characteristics, and
-//! the theorem behind the contour test (Volino & Magnenat-Thalmann's condition (B), made conservative).
-//! The 2-D loop geometry of the test lives in [`crate::geom::loop2d`].
+//! Node patches: contours, boundary vertices and Euler characteristics.
+//! The theorem the contour test rests on is in [`super::certify`]; the 2-D
+//! loop geometry of the test lives in [`crate::geom::loop2d`].
 //!
 //! A node's patch is the set of triangles under it. Its *contour* is every
 //! directed edge of the patch not shared by two of its triangles: mesh boundary
 //! edges and the edges the BVH cut. Contours are stored once, as sorted lists
 //! of packed directed edges `edge_id << 1 | reversed`, with the sorted list of
 //! the patch's boundary vertices and its Euler characteristic.
-//!
-//! **Theorem used.** Let a patch be connected with Euler characteristic 1, be
-//! an orientable manifold (every edge in at most two triangles, every vertex
-//! star one fan), have every triangle normal strictly within 90 degrees of v,
-//! and let c be a point such that, projected along v, c lies strictly left of
-//! every directed contour edge with the edges turning around c once in total.
-//! Then the patch has no two non-adjacent triangles that touch. (Each cycle of
-//! contour edges turns around c a positive whole number of times, so one turn
-//! means one simple star-shaped loop; the projection is then a local,
-//! orientation-preserving map of a disk whose boundary goes once around a
-//! simple curve, so its degree is 1 and it is one-to-one.)
-//!
-//! The loop is checked in O(contour) by the star test about the patch's box
-//! centre; when that fails, contours up to 64 edges get the exact condition
-//! (one simple counter-clockwise loop). For the union of two adjacent disks A
-//! and B (glued along edges, or pinched at one vertex) the star test runs on
-//! the union's contour; failing that, A and B are each checked as above and
-//! their loops must meet only along the edges and vertices they share, neither
-//! inside the other: the projection is then one-to-one on each and their images
-//! meet only where the patches themselves meet.
 
 use crate::geom::loop2d::{Plane, Seg};
 use crate::mesh::{Csr, Mesh};

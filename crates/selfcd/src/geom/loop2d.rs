@@ -1,5 +1,5 @@
 //! Closed loops of segments in the plane: the 2-D geometry of the contour test
-//! (see [`crate::bvh::patch`] for the theorem it serves).
+//! (see [`crate::bvh::certify`] for the theorem it serves).
 //!
 //! Decisions are conservative: a loop is reported simple, or two loops apart,
 //! only with a margin far above the rounding of the projection; near-touching
@@ -127,37 +127,74 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
     }
 }
 
-/// Is the projected contour one simple counter-clockwise loop? Every vertex
-/// starts and ends exactly one edge, the edges form a single cycle, no two
-/// edges meet except consecutive ones at their shared vertex, and the signed
-/// area is positive. O(m log m) plus the pairs of edges whose x-ranges overlap.
-pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
+/// Reusable buffers of the loop tests: once warm, a test allocates nothing.
+#[derive(Debug, Clone, Default)]
+pub struct LoopScratch {
+    /// Open-addressing table start vertex -> end vertex of each edge.
+    next: Vec<[u32; 2]>,
+    /// Box of each edge.
+    boxes: Vec<EdgeBox>,
+    /// Sweep events: (min, max) of each edge along the sweep direction, edge id.
+    events: Vec<(f64, f64, u32)>,
+}
+
+/// Empty slot of the vertex table.
+const EMPTY: u32 = u32::MAX;
+
+#[inline]
+fn slot(v: u32, mask: usize) -> usize {
+    ((v as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize & mask
+}
+
+/// Do the edges form one cycle, each vertex starting exactly one edge? O(m)
+/// with a hash table from start to end vertex.
+fn one_cycle(segs: &[Seg], table: &mut Vec<[u32; 2]>) -> bool {
     let m = segs.len();
-    if m < 3 {
-        return false;
-    }
-    // One cycle: each vertex starts exactly one edge; walk start -> end from
-    // the first edge and come back after exactly m steps.
-    let mut by_start: Vec<(u32, u32)> = segs.iter().map(|s| (s.v[0], s.v[1])).collect();
-    by_start.sort_unstable();
-    if by_start.windows(2).any(|w| w[0].0 == w[1].0) {
-        return false;
+    let mask = (2 * m).next_power_of_two() - 1;
+    table.clear();
+    table.resize(mask + 1, [EMPTY, 0]);
+    for s in segs {
+        let mut h = slot(s.v[0], mask);
+        while table[h][0] != EMPTY {
+            if table[h][0] == s.v[0] {
+                return false;
+            }
+            h = (h + 1) & mask;
+        }
+        table[h] = s.v;
     }
     let next = |v: u32| {
-        by_start
-            .binary_search_by_key(&v, |x| x.0)
-            .ok()
-            .map(|i| by_start[i].1)
+        let mut h = slot(v, mask);
+        loop {
+            match table[h][0] {
+                EMPTY => return None,
+                k if k == v => return Some(table[h][1]),
+                _ => h = (h + 1) & mask,
+            }
+        }
     };
+    // Walk start -> end from the first edge: back after exactly m steps.
     let (mut at, mut steps) = (segs[0].v[1], 1);
-    while at != segs[0].v[0] && steps <= m {
+    while at != segs[0].v[0] {
+        if steps >= m {
+            return false;
+        }
         match next(at) {
             Some(v) => at = v,
             None => return false,
         }
         steps += 1;
     }
-    if steps != m {
+    steps == m
+}
+
+/// Is the projected contour one simple counter-clockwise loop? Every vertex
+/// starts exactly one edge, the edges form a single cycle, no two edges meet
+/// except consecutive ones at their shared vertex, and the signed area is
+/// positive. O(m) expected (hash table, bucket grid), no allocation once
+/// `scratch` is warm.
+pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
+    if segs.len() < 3 || !one_cycle(segs, &mut scratch.next) {
         return false;
     }
     let area2: f64 = segs
@@ -168,69 +205,87 @@ pub fn simple_ccw_loop(segs: &[Seg]) -> bool {
     if area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater) {
         return false;
     }
-    all_pairs_clear(segs, segs, 1e-12 * ext2)
+    all_pairs_clear(segs, None, 1e-12 * ext2, scratch)
 }
 
-/// Every pair of edges (one from `a`, one from `b`; distinct pairs when they
-/// are the same list) is clear (see `edges_clear`). Short lists are compared
-/// directly; longer ones with a sweep along x, comparing only edges whose
-/// x-ranges overlap.
-fn all_pairs_clear(a: &[Seg], b: &[Seg], eps: f64) -> bool {
-    let same = std::ptr::eq(a, b);
-    if same && a.len() <= 24 {
-        return (0..a.len()).all(|i| (i + 1..a.len()).all(|j| edges_clear(&a[i], &a[j], eps)));
-    }
-    if !same {
-        let (small, big) = if a.len() <= b.len() { (a, b) } else { (b, a) };
-        if small.len() <= 16 {
-            // Only edges of the long loop near the short one can touch it.
-            let (lo, hi) = seg_bounds(small);
-            return big.iter().all(|x| {
-                let (xl, xh) = seg_bounds(std::slice::from_ref(x));
-                let near = (0..2).all(|k| xl[k] <= hi[k] && lo[k] <= xh[k]);
-                !near || small.iter().all(|y| edges_clear(x, y, eps))
-            });
-        }
-    }
-    let pad = 0.0;
-    let range = |s: &Seg| {
-        (
-            s.p[0][0].min(s.p[1][0]) - pad,
-            s.p[0][0].max(s.p[1][0]) + pad,
-        )
+/// Every pair of edges (one from `a`, one from `b`; or two distinct edges of
+/// `a` when `b` is None) is clear (see `edges_clear`). Edges whose closed boxes
+/// are apart are clear, so only pairs with overlapping boxes are compared:
+/// all pairs' boxes for short lists, a sweep along one direction for longer
+/// ones. Non-finite coordinates are never clear.
+fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScratch) -> bool {
+    let m = a.len() + b.map_or(0, <[Seg]>::len);
+    let get = |i: usize| match b {
+        Some(b) if i >= a.len() => &b[i - a.len()],
+        _ => &a[i],
     };
-    // Events: (x_min, x_max, list, index), sorted by x_min.
-    let mut ev: Vec<(f64, f64, bool, u32)> = a
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (range(s).0, range(s).1, false, i as u32))
-        .collect();
-    if !same {
-        ev.extend(
-            b.iter()
-                .enumerate()
-                .map(|(i, s)| (range(s).0, range(s).1, true, i as u32)),
+    // Pairs to compare: distinct edges of one list, or one edge of each list.
+    let wanted = |i: usize, j: usize| b.is_none() || ((i < a.len()) != (j < a.len()));
+    let boxes = &mut scratch.boxes;
+    boxes.clear();
+    for i in 0..m {
+        let p = get(i).p;
+        if !p.iter().flatten().all(|x| x.is_finite()) {
+            return false;
+        }
+        boxes.push(EdgeBox::of(&p));
+    }
+    let clear = |i: usize, j: usize| !wanted(i, j) || edges_clear(get(i), get(j), eps);
+    if m <= 16 {
+        return (0..m).all(|i| (i + 1..m).all(|j| !boxes[i].meets(&boxes[j]) || clear(i, j)));
+    }
+    // Sweep along a direction 22.5 degrees off the plane's axes, so that the
+    // axis-aligned and diagonal edges of grid-like meshes do not all share a range.
+    const D: [f64; 2] = [0.923_879_532_511_286_7, 0.382_683_432_365_089_8];
+    let ev = &mut scratch.events;
+    ev.clear();
+    ev.extend((0..m).map(|i| {
+        let p = get(i).p;
+        let (x, y) = (
+            D[0] * p[0][0] + D[1] * p[0][1],
+            D[0] * p[1][0] + D[1] * p[1][1],
         );
-    }
+        (x.min(y), x.max(y), i as u32)
+    }));
     ev.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-    let get = |e: &(f64, f64, bool, u32)| {
-        if e.2 {
-            &b[e.3 as usize]
-        } else {
-            &a[e.3 as usize]
-        }
-    };
-    for i in 0..ev.len() {
-        for j in i + 1..ev.len() {
-            if ev[j].0 > ev[i].1 {
+    for (k, &(_, hi, i)) in ev.iter().enumerate() {
+        for &(lo, _, j) in &ev[k + 1..] {
+            if lo > hi {
                 break;
             }
-            if (same || ev[i].2 != ev[j].2) && !edges_clear(get(&ev[i]), get(&ev[j]), eps) {
+            let (i, j) = (i as usize, j as usize);
+            if boxes[i].meets(&boxes[j]) && !clear(i, j) {
                 return false;
             }
         }
     }
     true
+}
+
+/// Closed box of a projected edge.
+#[derive(Debug, Clone, Copy)]
+struct EdgeBox {
+    lo: [f64; 2],
+    hi: [f64; 2],
+}
+
+impl EdgeBox {
+    #[inline]
+    fn of(p: &[[f64; 2]; 2]) -> EdgeBox {
+        EdgeBox {
+            lo: [p[0][0].min(p[1][0]), p[0][1].min(p[1][1])],
+            hi: [p[0][0].max(p[1][0]), p[0][1].max(p[1][1])],
+        }
+    }
+
+    /// The closed boxes share a point.
+    #[inline]
+    fn meets(&self, o: &EdgeBox) -> bool {
+        self.lo[0] <= o.hi[0]
+            && o.lo[0] <= self.hi[0]
+            && self.lo[1] <= o.hi[1]
+            && o.lo[1] <= self.hi[1]
+    }
 }
 
 /// Is `p` inside the closed loop `segs` (crossing number, even-odd)?
@@ -249,9 +304,9 @@ fn inside(p: [f64; 2], segs: &[Seg]) -> bool {
 
 /// Two simple counter-clockwise loops of adjacent patches: do they meet only
 /// along the mesh edges and vertices they share, with neither inside the other?
-pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg]) -> bool {
+pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg], scratch: &mut LoopScratch) -> bool {
     let eps = 1e-12 * extent2(a).max(extent2(b));
-    if !all_pairs_clear(a, b, eps) {
+    if !all_pairs_clear(a, Some(b), eps, scratch) {
         return false;
     }
     let outside = |s: &[Seg], loop_: &[Seg]| {
@@ -282,7 +337,10 @@ mod tests {
     #[test]
     fn simple_loops_and_stars() {
         let square = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
-        assert!(simple_ccw_loop(&square) && star_about(&square, [0.5, 0.5]));
+        assert!(
+            simple_ccw_loop(&square, &mut LoopScratch::default())
+                && star_about(&square, [0.5, 0.5])
+        );
         assert!(!star_about(&square, [1.5, 0.5]), "centre outside");
         let cw: Vec<Seg> = square
             .iter()
@@ -292,9 +350,9 @@ mod tests {
                 v: [s.v[1], s.v[0]],
             })
             .collect();
-        assert!(!simple_ccw_loop(&cw) && !star_about(&cw, [0.5, 0.5]));
+        assert!(!simple_ccw_loop(&cw, &mut LoopScratch::default()) && !star_about(&cw, [0.5, 0.5]));
         let bowtie = loop_of(&[[0., 0.], [1., 1.], [1., 0.], [0., 1.]], &[0, 1, 2, 3]);
-        assert!(!simple_ccw_loop(&bowtie));
+        assert!(!simple_ccw_loop(&bowtie, &mut LoopScratch::default()));
         // A U shape: simple but not star-shaped about its box centre.
         let u = loop_of(
             &[
@@ -309,7 +367,7 @@ mod tests {
             ],
             &[0, 1, 2, 3, 4, 5, 6, 7],
         );
-        assert!(simple_ccw_loop(&u) && !star_about(&u, [1.5, 1.5]));
+        assert!(simple_ccw_loop(&u, &mut LoopScratch::default()) && !star_about(&u, [1.5, 1.5]));
         // Twice around: every edge has the centre on its left, but it winds twice.
         let twice: Vec<[f64; 2]> = (0..8)
             .map(|k| {
@@ -327,10 +385,132 @@ mod tests {
     fn pinched_loops() {
         let a = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
         let b = loop_of(&[[1., 1.], [2., 1.], [2., 2.], [1., 2.]], &[2, 4, 5, 6]);
-        assert!(loops_meet_only_where_shared(&a, &b));
+        assert!(loops_meet_only_where_shared(
+            &a,
+            &b,
+            &mut LoopScratch::default()
+        ));
         let inner = loop_of(&[[1., 1.], [0.5, 0.8], [0.8, 0.5]], &[2, 7, 8]);
-        assert!(!loops_meet_only_where_shared(&a, &inner), "nested");
+        assert!(
+            !loops_meet_only_where_shared(&a, &inner, &mut LoopScratch::default()),
+            "nested"
+        );
         let crossing = loop_of(&[[1., 1.], [2., 1.], [0.5, 0.5]], &[2, 9, 10]);
-        assert!(!loops_meet_only_where_shared(&a, &crossing));
+        assert!(!loops_meet_only_where_shared(
+            &a,
+            &crossing,
+            &mut LoopScratch::default()
+        ));
+    }
+}
+
+#[cfg(test)]
+mod sweep_tests {
+    use super::*;
+    use crate::scene::SplitMix;
+
+    /// Every pair of edges compared, no box or sweep shortcut.
+    fn all_pairs_reference(a: &[Seg], b: Option<&[Seg]>, eps: f64) -> bool {
+        match b {
+            None => (0..a.len()).all(|i| (i + 1..a.len()).all(|j| edges_clear(&a[i], &a[j], eps))),
+            Some(b) => a.iter().all(|x| b.iter().all(|y| edges_clear(x, y, eps))),
+        }
+    }
+
+    /// A closed loop through `n` points on a noisy circle (often self-crossing
+    /// when the noise is large), on a grid-aligned square when `square`.
+    fn noisy_loop(
+        rng: &mut SplitMix,
+        n: usize,
+        noise: f64,
+        square: bool,
+        first_id: u32,
+    ) -> Vec<Seg> {
+        let pts: Vec<[f64; 2]> = (0..n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                let (x, y) = if square {
+                    // Four collinear runs of edges, as a grid patch's contour.
+                    let s = 4.0 * t;
+                    match s as usize {
+                        0 => (s, 0.0),
+                        1 => (1.0, s - 1.0),
+                        2 => (3.0 - s, 1.0),
+                        _ => (0.0, 4.0 - s),
+                    }
+                } else {
+                    let a = std::f64::consts::TAU * t;
+                    (a.cos(), a.sin())
+                };
+                [
+                    x + noise * (rng.unit() - 0.5),
+                    y + noise * (rng.unit() - 0.5),
+                ]
+            })
+            .collect();
+        (0..n)
+            .map(|i| {
+                let j = (i + 1) % n;
+                Seg {
+                    p: [pts[i], pts[j]],
+                    v: [first_id + i as u32, first_id + j as u32],
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn sweep_decides_as_all_pairs() {
+        let mut rng = SplitMix::new(11);
+        let mut scratch = LoopScratch::default();
+        let (mut clear, mut crossed) = (0, 0);
+        for round in 0..400 {
+            let n = 5 + round % 90;
+            let noise = [0.0, 0.05, 0.3, 1.0][round % 4];
+            let square = round % 3 == 0;
+            let a = noisy_loop(&mut rng, n, noise, square, 0);
+            let want = all_pairs_reference(&a, None, 1e-12);
+            assert_eq!(
+                all_pairs_clear(&a, None, 1e-12, &mut scratch),
+                want,
+                "round {round}"
+            );
+            let b = noisy_loop(&mut rng, 3 + round % 40, noise, !square, 1000);
+            let want2 = all_pairs_reference(&a, Some(&b), 1e-12);
+            assert_eq!(
+                all_pairs_clear(&a, Some(&b), 1e-12, &mut scratch),
+                want2,
+                "round {round}"
+            );
+            clear += want as u32;
+            crossed += !want as u32;
+        }
+        assert!(
+            clear > 50 && crossed > 50,
+            "both outcomes exercised: {clear} {crossed}"
+        );
+    }
+
+    #[test]
+    fn one_cycle_rejects_two_loops_and_pinches() {
+        let mut t = Vec::new();
+        let ring = |ids: &[u32]| -> Vec<Seg> {
+            (0..ids.len())
+                .map(|i| Seg {
+                    p: [[0.0; 2]; 2],
+                    v: [ids[i], ids[(i + 1) % ids.len()]],
+                })
+                .collect()
+        };
+        assert!(one_cycle(&ring(&[4, 9, 2, 7]), &mut t));
+        let mut two = ring(&[1, 2, 3]);
+        two.extend(ring(&[5, 6, 7]));
+        assert!(!one_cycle(&two, &mut t), "two cycles");
+        let mut pinch = ring(&[1, 2, 3]);
+        pinch.extend(ring(&[1, 6, 7]));
+        assert!(!one_cycle(&pinch, &mut t), "vertex 1 starts two edges");
+        let mut open = ring(&[1, 2, 3, 4]);
+        open.pop();
+        assert!(!one_cycle(&open, &mut t), "not closed");
     }
 }

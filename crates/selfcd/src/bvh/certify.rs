@@ -1,0 +1,314 @@
+//! Culling certificates for the self-traversal: the paper's normal-cone test
+//! ([`ConeCull`], not conservative on its own) and the cone plus contour test
+//! ([`ContourCull`], Volino & Magnenat-Thalmann's condition (B), made conservative).
+//! The traversal ([`super::traverse`]) only sees the [`Cull`] callbacks.
+//!
+//! **Theorem used.** Let a patch be connected with Euler characteristic 1, be
+//! an orientable manifold (every edge in at most two triangles, every vertex
+//! star one fan), have every triangle normal strictly within 90 degrees of v,
+//! and let c be a point such that, projected along v, c lies strictly left of
+//! every directed contour edge with the edges turning around c once in total.
+//! Then the patch has no two non-adjacent triangles that touch. (Each cycle of
+//! contour edges turns around c a positive whole number of times, so one turn
+//! means one simple star-shaped loop; the projection is then a local,
+//! orientation-preserving map of a disk whose boundary goes once around a
+//! simple curve, so its degree is 1 and it is one-to-one.) The same holds when
+//! the projected contour is any simple counter-clockwise loop.
+//!
+//! The loop is checked in O(contour) by the star test about the patch's box
+//! centre; when that fails, by the exact condition (one simple
+//! counter-clockwise loop, [`simple_ccw_loop`], O(contour) expected). For the
+//! union of two adjacent disks A and B glued along edges the union's contour
+//! gets the same test; pinched at vertices only, A and B are each checked as
+//! above and their loops must meet only along the vertices they share, neither
+//! inside the other: the projection is then one-to-one on each and their
+//! images meet only where the patches themselves meet.
+//!
+//! Every decision is made from this frame's boxes, cones and positions alone,
+//! so a certificate never depends on earlier frames.
+
+use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
+use super::Bvh;
+use crate::geom::loop2d::{
+    loops_meet_only_where_shared, simple_ccw_loop, star_about, LoopScratch, Plane, Seg,
+};
+use crate::geom::NormalCone;
+use crate::mesh::Mesh;
+use crate::stats::Counters;
+use glam::DVec3;
+
+/// What the traversal asks before descending. Answers may only be `true` when
+/// no two non-adjacent triangles of the node (or of the pair's union) touch.
+pub trait Cull: Sync {
+    /// Per-task buffers (one per parallel task, reused across calls).
+    type Scratch: Default + Send;
+    /// May the self-test of internal node `n` be skipped?
+    fn self_culled(&self, n: u32, s: &mut Self::Scratch, c: &mut Counters) -> bool;
+    /// May the pair test of disjoint nodes `a` and `b` (boxes overlapping,
+    /// not siblings, not both leaves) be skipped?
+    fn pair_culled(&self, a: u32, b: u32, s: &mut Self::Scratch, c: &mut Counters) -> bool;
+}
+
+/// No culling: every overlapping box pair is descended (`bvh`, proximity).
+pub struct BoxesOnly;
+
+impl Cull for BoxesOnly {
+    type Scratch = ();
+    #[inline]
+    fn self_culled(&self, _: u32, _: &mut (), _: &mut Counters) -> bool {
+        false
+    }
+    #[inline]
+    fn pair_culled(&self, _: u32, _: u32, _: &mut (), _: &mut Counters) -> bool {
+        false
+    }
+}
+
+/// The paper's cull: a node, or an adjacent pair, whose normal cone is under
+/// 90 degrees. Not conservative (a positive cone allows a patch that winds
+/// over itself); `bvh-cones`.
+pub struct ConeCull<'a> {
+    /// Cone of every node.
+    pub cones: &'a [NormalCone],
+    /// Patch topology (adjacency of pairs).
+    pub patches: &'a Patches,
+}
+
+impl ConeCull<'_> {
+    /// The merged cone of adjacent nodes `a` and `b` when it is positive.
+    /// Cheapest first: the merged cone can only be positive if both are, and
+    /// it is only worth merging for adjacent patches (most overlapping pairs
+    /// in layered cloth are not adjacent).
+    #[inline]
+    fn adjacent_positive(&self, a: u32, b: u32) -> Option<NormalCone> {
+        let (ca, cb) = (&self.cones[a as usize], &self.cones[b as usize]);
+        let p = self.patches;
+        if !ca.is_positive()
+            || !cb.is_positive()
+            || !have_common(p.boundary_of(a), p.boundary_of(b))
+        {
+            return None;
+        }
+        Some(ca.merge(cb)).filter(NormalCone::is_positive)
+    }
+}
+
+impl Cull for ConeCull<'_> {
+    type Scratch = ();
+    #[inline]
+    fn self_culled(&self, n: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = self.cones[n as usize].is_positive();
+        c.self_culls += culled as u64;
+        culled
+    }
+    #[inline]
+    fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = self.adjacent_positive(a, b).is_some();
+        c.pair_culls += culled as u64;
+        culled
+    }
+}
+
+/// Cone and contour certificate (see the module doc): exact; `bvh-cones-contour`.
+pub struct ContourCull<'a> {
+    bvh: &'a Bvh,
+    mesh: &'a Mesh,
+    positions: &'a [DVec3],
+    cones: ConeCull<'a>,
+}
+
+/// Buffers of one task's contour tests.
+#[derive(Default)]
+pub struct ContourScratch {
+    merged: Vec<u32>,
+    segs: Vec<Seg>,
+    segs_b: Vec<Seg>,
+    loops: LoopScratch,
+}
+
+impl<'a> ContourCull<'a> {
+    /// Certificates for `bvh` refitted to `positions`.
+    pub fn new(bvh: &'a Bvh, mesh: &'a Mesh, positions: &'a [DVec3]) -> Self {
+        ContourCull {
+            bvh,
+            mesh,
+            positions,
+            cones: ConeCull {
+                cones: &bvh.cones,
+                patches: &bvh.patches,
+            },
+        }
+    }
+
+    /// The projected contour of a disk-like patch is one simple counter-clockwise
+    /// loop: the star test about `center` first, the exact loop test if that fails.
+    fn disk_is_height_field(
+        &self,
+        contour: &[u32],
+        plane: &Plane,
+        center: [f64; 2],
+        segs: &mut Vec<Seg>,
+        loops: &mut LoopScratch,
+    ) -> bool {
+        project_contour(self.mesh, self.positions, contour, plane, segs);
+        star_about(segs, center) || simple_ccw_loop(segs, loops)
+    }
+
+    /// Is the union of adjacent disjoint patches a and b a height field along
+    /// `axis`? When they share edges the union is a disk (Euler characteristic
+    /// 1, no conflicting edge) and its contour gets the node test; when they
+    /// touch only at vertices each patch's loop must be simple and the two
+    /// loops meet only where the patches do.
+    fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
+        let (bvh, p) = (self.bvh, &self.bvh.patches);
+        let (ka, kb) = (p.contour_of(a), p.contour_of(b));
+        s.merged.reserve(ka.len() + kb.len());
+        let info = merge_contours(ka, kb, &mut s.merged);
+        let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
+        let euler = p.euler[a as usize] + p.euler[b as usize] - shared_v + info.shared_edges as i32;
+        if info.conflict || euler != 1 {
+            return false;
+        }
+        let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
+        let plane = Plane::new(axis, box_a.union(box_b).center());
+        if info.shared_edges > 0 {
+            // Patches glued along edges: the union is one disk, tested as a node is.
+            return self.disk_is_height_field(
+                &s.merged,
+                &plane,
+                [0.0; 2],
+                &mut s.segs,
+                &mut s.loops,
+            );
+        }
+        let (ca, cb) = (plane.project(box_a.center()), plane.project(box_b.center()));
+        self.disk_is_height_field(p.contour_of(a), &plane, ca, &mut s.segs, &mut s.loops)
+            && self.disk_is_height_field(p.contour_of(b), &plane, cb, &mut s.segs_b, &mut s.loops)
+            && loops_meet_only_where_shared(&s.segs, &s.segs_b, &mut s.loops)
+    }
+}
+
+impl Cull for ContourCull<'_> {
+    type Scratch = ContourScratch;
+
+    fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
+        let (bvh, p) = (self.bvh, &self.bvh.patches);
+        let cone = &bvh.cones[n as usize];
+        if !cone.is_positive() {
+            return false;
+        }
+        c.contour_tests += 1;
+        let ok = p.eligible[n as usize] && p.euler[n as usize] == 1 && {
+            let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
+            let contour = p.contour_of(n);
+            self.disk_is_height_field(contour, &plane, [0.0; 2], &mut s.segs, &mut s.loops)
+        };
+        c.contour_fails += !ok as u64;
+        c.self_culls += ok as u64;
+        ok
+    }
+
+    fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
+        let Some(merged) = self.cones.adjacent_positive(a, b) else {
+            return false;
+        };
+        let p = &self.bvh.patches;
+        c.contour_tests += 1;
+        let ok = p.eligible[a as usize]
+            && p.eligible[b as usize]
+            && self.union_is_height_field(a, b, merged.axis, s);
+        c.contour_fails += !ok as u64;
+        c.pair_culls += ok as u64;
+        ok
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::build::build;
+    use crate::bvh::traverse::traverse;
+    use crate::detect::narrow::Intersect;
+
+    /// A strip of `n` quads winding `turns` times around the z axis while
+    /// rising slowly (a spiral ramp): every normal within a few degrees of +z,
+    /// no two triangles touching, but its projection along z overlaps itself
+    /// once `turns` > 1.
+    fn ramp(n: usize, turns: f64) -> Mesh {
+        let mut v = Vec::new();
+        for i in 0..=n {
+            let t = std::f64::consts::TAU * turns * i as f64 / n as f64;
+            for r in [1.0, 2.0] {
+                v.push([r * t.cos(), r * t.sin(), 0.05 * t]);
+            }
+        }
+        let q = |i: usize, k: usize| (2 * i + k) as u32;
+        let f = (0..n)
+            .flat_map(|i| {
+                [
+                    [q(i, 0), q(i, 1), q(i + 1, 1)],
+                    [q(i, 0), q(i + 1, 1), q(i + 1, 0)],
+                ]
+            })
+            .collect();
+        Mesh::new(v, f).unwrap()
+    }
+
+    fn root_culled(mesh: &Mesh) -> (bool, bool) {
+        let mut bvh = build(mesh);
+        bvh.refit(mesh, mesh.rest());
+        let root = bvh.root();
+        let cones = ConeCull {
+            cones: &bvh.cones,
+            patches: &bvh.patches,
+        };
+        let contour = ContourCull::new(&bvh, mesh, mesh.rest());
+        let mut c = Counters::default();
+        (
+            cones.self_culled(root, &mut (), &mut c),
+            contour.self_culled(root, &mut ContourScratch::default(), &mut c),
+        )
+    }
+
+    #[test]
+    fn contour_refuses_a_ramp_that_overlaps_in_projection() {
+        // Half a turn: a height field, culled by both; 1.2 turns: the cone
+        // alone still culls, the contour test refuses.
+        assert_eq!(root_culled(&ramp(64, 0.5)), (true, true));
+        assert_eq!(root_culled(&ramp(64, 1.2)), (true, false));
+    }
+
+    #[test]
+    fn culls_do_not_change_the_pairs() {
+        // The ramp's turns made to cross (height 0.2 sin(1.3 t) at angle t):
+        // every cull gives the boxes-only pairs.
+        let (n, turns) = (200, 1.6);
+        let mesh = ramp(n, turns);
+        let p: Vec<DVec3> = (0..mesh.rest().len())
+            .map(|k| {
+                let t = std::f64::consts::TAU * turns * (k / 2) as f64 / n as f64;
+                let x = mesh.rest()[k];
+                DVec3::new(x.x, x.y, 0.2 * (1.3 * t).sin())
+            })
+            .collect();
+        let mut bvh = build(&mesh);
+        bvh.refit(&mesh, &p);
+        let visitor = Intersect {
+            mesh: &mesh,
+            positions: &p,
+        };
+        let mut want = traverse(&bvh, &mesh, 0.0, &BoxesOnly, &visitor).0;
+        want.sort_unstable();
+        assert!(!want.is_empty());
+        let mut got = traverse(
+            &bvh,
+            &mesh,
+            0.0,
+            &ContourCull::new(&bvh, &mesh, &p),
+            &visitor,
+        )
+        .0;
+        got.sort_unstable();
+        assert_eq!(got, want);
+    }
+}
