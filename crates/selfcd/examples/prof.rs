@@ -4,30 +4,14 @@
 //! (a benchmark grid, deformed), or
 //! `cargo run --release -p selfcd --example prof -- FILE.obj METHOD [REPS] [THICKNESS in mean edges]`
 //! (a mesh file at its own positions).
-use selfcd::scene::{grid, grid_side_for, BenchState};
-use selfcd::{new_detector, DVec3, DetectorOptions, Mesh, Method};
-use std::sync::Arc;
+use selfcd::{new_detector, DetectorOptions, Method};
 use std::time::Instant;
 
+#[path = "common/input.rs"]
+mod input;
 #[path = "common/obj.rs"]
 mod obj;
-
-/// The mesh, the frame to detect on, and the remaining arguments.
-fn frame(a: &[String]) -> (Arc<Mesh>, Vec<DVec3>, &[String]) {
-    if a[1].ends_with(".obj") {
-        let (v, f) = obj::read_obj(&a[1]);
-        let mesh = Arc::new(Mesh::new(v, f).unwrap());
-        let p = mesh.rest().to_vec();
-        return (mesh, p, &a[2..]);
-    }
-    let n: usize = a[1].parse().unwrap();
-    let state: BenchState = a[2].parse().unwrap();
-    let side = grid_side_for(n);
-    let (v, f) = grid(side, 1.0);
-    let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let p = state.deformation(side).apply(mesh.rest());
-    (mesh, p, &a[3..])
-}
+use input::frame;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();

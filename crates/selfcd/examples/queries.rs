@@ -19,30 +19,14 @@ use selfcd::bvh::{build::build, Bvh};
 use selfcd::detect::coherent::SelfQueries;
 use selfcd::detect::hierarchy::BvhDetector;
 use selfcd::detect::narrow::{collect_proximity, Proximity, DEFAULT_MAX_CONTACTS};
-use selfcd::scene::{grid, grid_side_for, BenchState};
 use selfcd::{DVec3, FrameStats, Mesh, Method};
-use std::sync::Arc;
 use std::time::Instant;
 
+#[path = "common/input.rs"]
+mod input;
 #[path = "common/obj.rs"]
 mod obj;
-
-/// The mesh, the frame, and the remaining arguments.
-fn frame(a: &[String]) -> (Arc<Mesh>, Vec<DVec3>, &[String]) {
-    if a[1].ends_with(".obj") {
-        let (v, f) = obj::read_obj(&a[1]);
-        let mesh = Arc::new(Mesh::new(v, f).unwrap());
-        let p = mesh.rest().to_vec();
-        return (mesh, p, &a[2..]);
-    }
-    let n: usize = a[1].parse().unwrap();
-    let state: BenchState = a[2].parse().unwrap();
-    let side = grid_side_for(n);
-    let (v, f) = grid(side, 1.0);
-    let mesh = Arc::new(Mesh::new(v, f).unwrap());
-    let p = state.deformation(side).apply(mesh.rest());
-    (mesh, p, &a[3..])
-}
+use input::frame;
 
 /// Median edge length at positions `x`.
 fn median_edge(mesh: &Mesh, x: &[DVec3]) -> f64 {

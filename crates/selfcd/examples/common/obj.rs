@@ -1,4 +1,4 @@
-//! Shared by the examples that read mesh files (scaling, prof).
+//! Shared by the examples that read mesh files (scaling, prof, queries, sensor_sweep).
 
 /// Reads the `v` and `f` lines of an OBJ file (polygons fanned into triangles).
 pub fn read_obj(path: &str) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
