@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import colorsys
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -80,7 +81,10 @@ def test_headless_screenshot_shows_the_cloth(scene: str, tmp_path: Path) -> None
     r = run_cli("view", "--scene", scene, "--frames", str(FRAMES), "--screenshot", str(out), "--size",
                 f"{SIZE[0]}x{SIZE[1]}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert f"frame {FRAMES}" in r.stdout and "4 particles" in r.stdout
+    assert f"frame {FRAMES}" in r.stdout
+    # The particle count follows the cloth's convex parts, never below the 4 a flat cloth starts with.
+    count = re.search(r"(\d+) particles", r.stdout)
+    assert count is not None and int(count.group(1)) >= 4, r.stdout
     img = Image.open(out)
     assert img.size == SIZE
 
