@@ -108,8 +108,30 @@ pub fn count_common(a: &[u32], b: &[u32]) -> u32 {
     n
 }
 
-/// True when two sorted lists share an item.
+/// True when two sorted lists share an item. Lists whose ranges do not
+/// overlap are apart at once; a short list against a long one (a small node
+/// against a big one, the common case in a descent) is searched item by item
+/// in the long one, O(short log long); otherwise the lists are merged.
 pub fn have_common(a: &[u32], b: &[u32]) -> bool {
+    let (short, long) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    let (Some(&s0), Some(&s1), Some(&l0), Some(&l1)) =
+        (short.first(), short.last(), long.first(), long.last())
+    else {
+        return false;
+    };
+    if s1 < l0 || l1 < s0 {
+        return false;
+    }
+    if 8 * short.len() < long.len() {
+        let mut rest = long;
+        for x in short {
+            match rest.binary_search(x) {
+                Ok(_) => return true,
+                Err(k) => rest = &rest[k..],
+            }
+        }
+        return false;
+    }
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         match a[i].cmp(&b[j]) {
@@ -156,4 +178,43 @@ pub fn project_contour(
             v,
         }
     }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `have_common` agrees with `count_common > 0` on sorted lists of every
+    /// length ratio (merge, item-by-item search, disjoint ranges, empty).
+    #[test]
+    fn have_common_matches_the_count() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m) as u32
+        };
+        let mut list = |len: u32, range: u64, next: &mut dyn FnMut(u64) -> u32| {
+            let mut v: Vec<u32> = (0..len).map(|_| next(range)).collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let (mut both, mut neither) = (0, 0);
+        for _ in 0..4000 {
+            let (la, lb) = (next(4), next(200));
+            let a = list(la, 400, &mut next);
+            let b = list(lb, 400, &mut next);
+            let want = count_common(&a, &b) > 0;
+            assert_eq!(have_common(&a, &b), want, "{a:?} {b:?}");
+            assert_eq!(have_common(&b, &a), want, "{b:?} {a:?}");
+            if want {
+                both += 1;
+            } else {
+                neither += 1;
+            }
+        }
+        assert!(both > 100 && neither > 100, "{both} {neither}");
+    }
 }
