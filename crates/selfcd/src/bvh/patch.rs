@@ -195,7 +195,7 @@ mod tests {
             seed ^= seed << 17;
             (seed % m) as u32
         };
-        let mut list = |len: u32, range: u64, next: &mut dyn FnMut(u64) -> u32| {
+        let list = |len: u32, range: u64, next: &mut dyn FnMut(u64) -> u32| {
             let mut v: Vec<u32> = (0..len).map(|_| next(range)).collect();
             v.sort_unstable();
             v.dedup();
