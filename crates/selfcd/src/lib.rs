@@ -22,6 +22,7 @@ pub mod mesh;
 pub mod scene;
 pub mod sensor;
 pub mod stats;
+pub(crate) mod union_find;
 
 pub use detect::{new_detector, self_intersections, Detection, Detector, DetectorOptions, Method};
 pub use error::{Error, Result};

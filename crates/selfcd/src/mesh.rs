@@ -6,6 +6,7 @@
 
 use crate::error::{Error, Result};
 use crate::geom::predicates::{exponent, mul_pow2};
+use crate::union_find;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -373,13 +374,6 @@ impl Mesh {
         let fan = topo.vertex_tris.row(v as usize);
         parent.clear();
         parent.extend(0..fan.len() as u32);
-        fn find(p: &mut [u32], mut x: u32) -> u32 {
-            while p[x as usize] != x {
-                p[x as usize] = p[p[x as usize] as usize];
-                x = p[x as usize];
-            }
-            x
-        }
         let mut fans = fan.len();
         for (i, &t) in fan.iter().enumerate() {
             let k = self.tris[t as usize]
@@ -393,9 +387,7 @@ impl Mesh {
                     let Ok(j) = fan.binary_search(&u) else {
                         continue;
                     };
-                    let (ri, rj) = (find(parent, i as u32), find(parent, j as u32));
-                    if ri != rj {
-                        parent[ri as usize] = rj;
+                    if union_find::union(parent, i as u32, j as u32) {
                         fans -= 1;
                     }
                 }

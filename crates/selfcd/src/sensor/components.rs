@@ -3,6 +3,7 @@
 //! there is no surface path, so the original distance there is infinite.
 
 use crate::mesh::Mesh;
+use crate::union_find::{find, union};
 
 /// Component id of every triangle, numbered 0.. in order of each component's first triangle.
 pub fn triangle_components(mesh: &Mesh) -> Vec<u32> {
@@ -24,23 +25,6 @@ pub fn triangle_components(mesh: &Mesh) -> Vec<u32> {
             label[root]
         })
         .collect()
-}
-
-/// Root of `v`, halving the path on the way.
-fn find(parent: &mut [u32], mut v: u32) -> u32 {
-    while parent[v as usize] != v {
-        let up = parent[parent[v as usize] as usize];
-        parent[v as usize] = up;
-        v = up;
-    }
-    v
-}
-
-/// Joins the sets of `a` and `b` (the smaller root becomes the parent: deterministic).
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    let (lo, hi) = (ra.min(rb), ra.max(rb));
-    parent[hi as usize] = lo;
 }
 
 #[cfg(test)]
