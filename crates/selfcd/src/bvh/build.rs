@@ -515,20 +515,15 @@ fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{grid, Deformation};
+    use crate::scene::{grid, Deformation, SplitMix};
     use std::collections::BTreeMap;
 
     /// A grid with holes, flipped triangles (winding conflicts), a fin and a
     /// separate strip, so that every case of the patch merge is met.
     fn mesh(seed: u64) -> Mesh {
         let (mut v, mut f) = grid(12, 1.0);
-        let mut r = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut next = || {
-            r ^= r << 13;
-            r ^= r >> 7;
-            r ^= r << 17;
-            r % 10
-        };
+        let mut rng = SplitMix::new(seed);
+        let mut next = || rng.next_u64() % 10;
         f = f
             .into_iter()
             .filter_map(|[a, b, c]| match next() {

@@ -188,13 +188,8 @@ mod tests {
     /// length ratio (merge, item-by-item search, disjoint ranges, empty).
     #[test]
     fn have_common_matches_the_count() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move |m: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed % m) as u32
-        };
+        let mut rng = crate::scene::SplitMix::new(7);
+        let mut next = move |m: u64| (rng.next_u64() % m) as u32;
         let list = |len: u32, range: u64, next: &mut dyn FnMut(u64) -> u32| {
             let mut v: Vec<u32> = (0..len).map(|_| next(range)).collect();
             v.sort_unstable();
