@@ -38,13 +38,13 @@ use std::time::Instant;
 /// Below this many items a loop runs on one thread.
 const PAR_MIN: usize = 4096;
 
-/// What the hierarchy's boxes are fitted to.
-#[derive(Debug, Clone, PartialEq)]
-enum Fit {
-    /// Nothing yet, or a swept motion.
-    Stale,
-    /// Static boxes (and cones) at these positions.
-    Static(Vec<DVec3>),
+/// What the hierarchy's boxes are fitted to: static boxes at `at` when
+/// `fitted`, else nothing yet or a swept motion. `at` keeps its buffer
+/// across frames (no allocation per refit).
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Fit {
+    fitted: bool,
+    at: Vec<DVec3>,
 }
 
 /// Element pairs closer than `reach + skin` at `reference`, sorted by their
@@ -191,7 +191,7 @@ impl SelfQueries {
         Ok(SelfQueries {
             mesh,
             bvh,
-            fit: Fit::Stale,
+            fit: Fit::default(),
             candidates: Candidates::default(),
             skin,
             max_skin: MAX_SKIN * skin,
@@ -223,12 +223,14 @@ impl SelfQueries {
 
     /// Fits boxes and cones to `x` unless they already are; adds the time to `s`.
     fn fit_static(&mut self, x: &[DVec3], s: &mut FrameStats) {
-        if matches!(&self.fit, Fit::Static(at) if at.as_slice() == x) {
+        if self.fit.fitted && self.fit.at.as_slice() == x {
             return;
         }
         let t0 = Instant::now();
         self.bvh.refit(&self.mesh, x);
-        self.fit = Fit::Static(x.to_vec());
+        self.fit.at.clear();
+        self.fit.at.extend_from_slice(x);
+        self.fit.fitted = true;
         s.refit_time += t0.elapsed().as_secs_f64();
     }
 
@@ -367,7 +369,7 @@ impl SelfQueries {
             return Ok(Impacts::from_items(found));
         }
         self.bvh.refit_swept(&mesh, x0, x1);
-        self.fit = Fit::Stale;
+        self.fit.fitted = false;
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
         let (found, c) = swept_query(&self.bvh, &mesh, x0, x1, thickness);
