@@ -63,6 +63,25 @@ fn cluster(mesh: &Mesh, gap: f64) -> Vec<SurfacePoint> {
         .collect()
 }
 
+/// Frame `frame` of a long random sequence: a crumple, noise and a twist in
+/// turn, each with random amplitude.
+fn random_shape(frame: usize, rng: &mut SplitMix) -> Deformation {
+    match frame % 3 {
+        0 => Deformation::Crumple {
+            amplitude: 0.4 * rng.unit(),
+            wavelength: 0.2 + 0.5 * rng.unit(),
+            seed: rng.next_u64(),
+        },
+        1 => Deformation::Noise {
+            amplitude: 0.05 * rng.unit(),
+            seed: rng.next_u64(),
+        },
+        _ => Deformation::Twist {
+            turns: 2.0 * rng.unit() - 1.0,
+        },
+    }
+}
+
 fn min_pair_distance(p: &[DVec3]) -> f64 {
     let mut m = f64::INFINITY;
     for i in 0..p.len() {
@@ -87,20 +106,7 @@ fn particles_stay_on_the_surface_through_long_random_deformations() {
     let mut sensor = Sensor::new(mesh.clone(), params).unwrap();
     let mut rng = SplitMix::new(7);
     for frame in 0..300 {
-        let shape = match frame % 3 {
-            0 => Deformation::Crumple {
-                amplitude: 0.4 * rng.unit(),
-                wavelength: 0.2 + 0.5 * rng.unit(),
-                seed: rng.next_u64(),
-            },
-            1 => Deformation::Noise {
-                amplitude: 0.05 * rng.unit(),
-                seed: rng.next_u64(),
-            },
-            _ => Deformation::Twist {
-                turns: 2.0 * rng.unit() - 1.0,
-            },
-        };
+        let shape = random_shape(frame, &mut rng);
         let pos = shape.apply(mesh.rest());
         sensor.relax(&pos).unwrap();
         let extent = 2.0; // bounds every shape above
@@ -729,20 +735,7 @@ fn particles_stay_on_curved_surfaces_through_long_random_deformations() {
         .collect();
     let mut rng = SplitMix::new(11);
     for frame in 0..200 {
-        let shape = match frame % 3 {
-            0 => Deformation::Crumple {
-                amplitude: 0.4 * rng.unit(),
-                wavelength: 0.2 + 0.5 * rng.unit(),
-                seed: rng.next_u64(),
-            },
-            1 => Deformation::Noise {
-                amplitude: 0.05 * rng.unit(),
-                seed: rng.next_u64(),
-            },
-            _ => Deformation::Twist {
-                turns: 2.0 * rng.unit() - 1.0,
-            },
-        };
+        let shape = random_shape(frame, &mut rng);
         let pos = shape.apply(mesh.rest());
         sensor.relax(&pos).unwrap();
         let extent = 4.0;
