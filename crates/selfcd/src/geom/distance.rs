@@ -6,37 +6,29 @@
 //! lengths are formed directly, so they overflow for coordinates beyond about
 //! 1e154 and lose all precision below about 1e-154.
 
+use super::Aabb;
 use glam::DVec3;
 
 /// Relative slack of [`hulls_apart`], in units of the coordinates' magnitude:
 /// far above the rounding of the distance functions here.
 const APART_SLACK: f64 = 1e-9;
 
-/// Box of a point set, as (min, max).
-#[inline]
-fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
-    points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    )
-}
-
 /// True when the convex hulls of `a` and `b` are certainly farther apart than
-/// `gap`: their boxes are, along some axis, by more than `gap` plus a slack of
-/// [`APART_SLACK`] times the coordinates' magnitude. The cheap element-level
+/// `gap`: their boxes are apart ([`Aabb::within`] fails) by more than `gap`
+/// plus a slack of [`APART_SLACK`] times the coordinates' magnitude. The cheap element-level
 /// cull in front of the distance and time-of-impact functions; it never
 /// rejects a pair those compute closer than `gap`.
 #[inline]
 pub fn hulls_apart(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
-    let ((la, ha), (lb, hb)) = (bounds(a), bounds(b));
-    let sep = (lb - ha).max(la - hb).max_element();
-    let mag = la
+    let (ba, bb) = (Aabb::from_points(a), Aabb::from_points(b));
+    let mag = ba
+        .min
         .abs()
-        .max(ha.abs())
-        .max(lb.abs())
-        .max(hb.abs())
+        .max(ba.max.abs())
+        .max(bb.min.abs())
+        .max(bb.max.abs())
         .max_element();
-    sep > gap + APART_SLACK * mag
+    !ba.within(&bb, gap + APART_SLACK * mag)
 }
 
 /// Closest point of triangle (a, b, c) to `p`, as barycentric weights (wa, wb, wc).
