@@ -14,7 +14,7 @@ use super::Detector;
 use crate::bvh::traverse::{self_traverse, LeafVisitor, TraverseOptions};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{time_of_impact, StencilKind};
+use crate::geom::ccd::time_of_impact;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -58,23 +58,7 @@ pub fn element_toi(
     pair: ElementPair,
     thickness: f64,
 ) -> Option<f64> {
-    let (kind, ids) = match pair {
-        ElementPair::VertexTriangle(v, t) => {
-            let tri = mesh.triangles()[t as usize];
-            if tri.contains(&v) {
-                return None;
-            }
-            (StencilKind::VertexTriangle, [v, tri[0], tri[1], tri[2]])
-        }
-        ElementPair::EdgeEdge(e0, e1) => {
-            let edges = &mesh.topology().edges;
-            let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
-            if a == c || a == d || b == c || b == d {
-                return None;
-            }
-            (StencilKind::EdgeEdge, [a, b, c, d])
-        }
-    };
+    let (kind, ids) = pair.stencil(mesh)?;
     let at = |x: &[DVec3]| ids.map(|i| x[i as usize]);
     time_of_impact(kind, at(x0), at(x1), thickness)
 }

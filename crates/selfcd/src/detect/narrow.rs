@@ -7,6 +7,7 @@
 
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
+use crate::geom::ccd::{distance2, StencilKind};
 use crate::geom::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
@@ -269,32 +270,36 @@ impl ElementPair {
         }
     }
 
-    /// The distance of the two elements at `x` when they share no vertex and
-    /// are closer than `reach`, else `None`.
-    pub fn distance_within(self, mesh: &Mesh, x: &[DVec3], reach: f64) -> Option<f64> {
-        let p = |i: u32| x[i as usize];
-        let d2 = match self {
+    /// The pair as a stencil: its kind and four vertex ids, (v, t0, t1, t2)
+    /// or (a, b, c, d) for edges a-b and c-d in the pair's order; `None` when
+    /// the elements share a vertex (incident pairs are never contacts).
+    #[inline]
+    pub fn stencil(self, mesh: &Mesh) -> Option<(StencilKind, [u32; 4])> {
+        match self {
             ElementPair::VertexTriangle(v, t) => {
                 let tri = mesh.triangles()[t as usize];
-                let [a, b, c] = tri.map(p);
-                if tri.contains(&v) || hulls_apart(&[p(v)], &[a, b, c], reach) {
-                    return None;
-                }
-                point_triangle_distance2(p(v), a, b, c).0
+                (!tri.contains(&v))
+                    .then_some((StencilKind::VertexTriangle, [v, tri[0], tri[1], tri[2]]))
             }
             ElementPair::EdgeEdge(e0, e1) => {
                 let edges = &mesh.topology().edges;
                 let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
-                if a == c || a == d || b == c || b == d {
-                    return None;
-                }
-                let ([a, b], [c, d]) = ([p(a), p(b)], [p(c), p(d)]);
-                if hulls_apart(&[a, b], &[c, d], reach) {
-                    return None;
-                }
-                segment_segment_distance2(a, b, c, d).0
+                (a != c && a != d && b != c && b != d)
+                    .then_some((StencilKind::EdgeEdge, [a, b, c, d]))
             }
-        };
+        }
+    }
+
+    /// The distance of the two elements at `x` when they share no vertex and
+    /// are closer than `reach`, else `None`.
+    pub fn distance_within(self, mesh: &Mesh, x: &[DVec3], reach: f64) -> Option<f64> {
+        let (kind, ids) = self.stencil(mesh)?;
+        let corners = ids.map(|i| x[i as usize]);
+        let (first, second) = corners.split_at(kind.split());
+        if hulls_apart(first, second, reach) {
+            return None;
+        }
+        let d2 = distance2(kind, &corners);
         (d2 < reach * reach).then(|| d2.sqrt())
     }
 }

@@ -26,6 +26,17 @@ pub enum StencilKind {
     EdgeEdge,
 }
 
+impl StencilKind {
+    /// Number of the stencil's vertices on its first element (1 or 2).
+    #[inline]
+    pub fn split(self) -> usize {
+        match self {
+            StencilKind::VertexTriangle => 1,
+            StencilKind::EdgeEdge => 2,
+        }
+    }
+}
+
 /// The query reports an impact once the gap (distance - thickness) is below this
 /// fraction of its initial value.
 const RESOLUTION: f64 = 1e-6;
@@ -36,7 +47,8 @@ const STEP: f64 = 0.9;
 /// Iteration cap: past it the current (still conservative) time is returned.
 const MAX_ITERATIONS: u32 = 100_000;
 
-fn distance2(pair: StencilKind, x: &[DVec3; 4]) -> f64 {
+/// Squared distance between the two elements of a stencil at corners `x`.
+pub fn distance2(pair: StencilKind, x: &[DVec3; 4]) -> f64 {
     match pair {
         StencilKind::VertexTriangle => point_triangle_distance2(x[0], x[1], x[2], x[3]).0,
         StencilKind::EdgeEdge => segment_segment_distance2(x[0], x[1], x[2], x[3]).0,
