@@ -73,6 +73,21 @@ def test_weld_keeps_collapsed_corners_distinct() -> None:
     selfcd.Mesh(v, f, weld=True)  # valid: the second face is a segment
 
 
+def test_position_groups_match_numpy_unique() -> None:
+    """The engine's grouping equals numpy's exact row grouping (first-occurrence numbering)."""
+    rng = np.random.default_rng(5)
+    v = rng.integers(-3, 4, size=(4000, 3)).astype(float) * rng.choice([0.5, 1e-300, 1e300], size=(4000, 1))
+    v[rng.random(4000) < 0.1] *= -1.0  # signed zeros among the repeats
+    group, first = selfcd._core.position_groups(v)
+    _, idx, inv = np.unique(v + 0.0, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(idx, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    np.testing.assert_array_equal(first, idx[order])
+    np.testing.assert_array_equal(group, rank[inv.reshape(-1)])
+    assert len(first) < len(v)
+
+
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(Path(selfcd.__file__).parent.parent)}
     return subprocess.run([sys.executable, "-m", "selfcd", *args], capture_output=True, text=True, env=env,

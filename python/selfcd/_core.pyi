@@ -69,6 +69,9 @@ class Detector:
     def last_proximity(self) -> dict[str, np.ndarray] | None:
         """Proximity contacts of the last call, or None."""
 
+def position_groups(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(group id per vertex, first vertex per group), int64: exactly equal positions, first-occurrence order."""
+
 def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
     """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
 

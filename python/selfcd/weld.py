@@ -13,6 +13,8 @@ import warnings
 
 import numpy as np
 
+from . import _core
+
 
 class UnweldedMeshWarning(UserWarning):
     """A mesh has distinct vertices at the same position: neighbours there count as intersecting."""
@@ -21,12 +23,8 @@ class UnweldedMeshWarning(UserWarning):
 def _groups(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(representative, group): each vertex's group id, numbered in first-occurrence order,
     and the first vertex of each group."""
-    v = np.ascontiguousarray(vertices, dtype=np.float64) + 0.0  # -0.0 + 0.0 == +0.0
-    _, first, inverse = np.unique(v, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    return first[order], rank[inverse.reshape(-1)]
+    group, first = _core.position_groups(np.ascontiguousarray(vertices, dtype=np.float64))
+    return first, group
 
 
 def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -57,6 +57,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<inspect::PyHierarchy>()?;
     m.add_function(wrap_pyfunction!(inspect::sensor_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::position_groups, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::first_intersection, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::continuous_impacts, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;

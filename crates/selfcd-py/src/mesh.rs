@@ -80,6 +80,19 @@ impl PyMesh {
     }
 }
 
+/// Groups of equal positions (see `selfcd::weld`): (group id of every vertex,
+/// first vertex of every group), both int64, groups in first-occurrence order.
+#[pyfunction]
+pub fn position_groups<'py>(
+    py: Python<'py>,
+    positions: PyReadonlyArray2<'_, f64>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let p = points(&positions, "vertices")?;
+    let g = py.detach(|| selfcd::weld::position_groups(&p));
+    let ids = |v: &[u32]| PyArray1::from_vec(py, v.iter().map(|&x| x as i64).collect()).into_any();
+    Ok((ids(&g.group), ids(&g.first)))
+}
+
 /// One-shot exact query: intersecting non-adjacent face pairs of `mesh` at `positions`.
 #[pyfunction]
 pub fn self_intersections<'py>(

@@ -23,6 +23,7 @@ pub mod scene;
 pub mod sensor;
 pub mod stats;
 pub(crate) mod union_find;
+pub mod weld;
 
 pub use detect::{new_detector, self_intersections, Detection, Detector, DetectorOptions, Method};
 pub use error::{Error, Result};
