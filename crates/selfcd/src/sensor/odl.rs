@@ -96,7 +96,8 @@ pub fn flatness_deviation(mesh: &Mesh) -> f64 {
 pub struct Path {
     /// ro in mean-edge units; infinite between components.
     pub length: f64,
-    /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest shape).
+    /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest
+    /// shape; finite between components too).
     pub chord: f64,
     /// A lower bound of ro: `length` less the field's interpolation error (the
     /// longest rest edge of the first particle's triangle: a linearly
@@ -219,15 +220,15 @@ impl OriginalDistance {
     /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
     pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
         let (pi, pj) = (&points[i], &points[j]);
+        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
         if self.component[pi.tri as usize] != self.component[pj.tri as usize] {
             return Path {
                 length: f64::INFINITY,
-                chord: f64::INFINITY,
+                chord: chord.length(),
                 lower: f64::INFINITY,
                 direction: DVec3::ZERO,
             };
         }
-        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
         let straight = Path {
             length: chord.length(),
             chord: chord.length(),
