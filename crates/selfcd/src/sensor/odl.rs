@@ -101,7 +101,9 @@ pub struct Path {
     pub chord: f64,
     /// A lower bound of ro: `length` less the field's interpolation error (the
     /// longest rest edge of the first particle's triangle: a linearly
-    /// interpolated distance overestimates by at most that), never below the chord.
+    /// interpolated distance overestimates by at most that) and less the
+    /// field's staleness (its source is up to [`REFRESH`] from the second
+    /// particle), never below the chord.
     pub lower: f64,
     /// Rest-space direction at the first particle towards the second (in its
     /// triangle's plane up to the chord case); zero between components or when undefined.
@@ -262,7 +264,11 @@ impl OriginalDistance {
             .unwrap_or(chord);
         Path {
             length: along,
-            lower: (along - longest).max(straight.length),
+            // The field is from j's source, up to REFRESH from j: its value
+            // at i is off by at most that offset (triangle inequality, with
+            // the rest chord standing in for the short surface path).
+            lower: (along - longest - field.source.distance(pj.position(&self.mesh, &self.rest)))
+                .max(straight.length),
             direction,
             ..straight
         }
