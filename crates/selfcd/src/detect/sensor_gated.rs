@@ -6,9 +6,10 @@
 //!
 //! The particle count follows the convex parts of the current shape
 //! ([`crate::sensor::parts`]): on every triggered frame (whose refit is paid
-//! anyway), on a frame where the shape moved since the last count ([`Probes`]:
-//! a distance between the particles' surface points of that count changed by
-//! more than the trigger tolerance), and every [`RECOUNT`] frames, the parts
+//! anyway), on a frame where the shape moved since the last count (a distance
+//! between the particles' surface points of that count changed by more than
+//! the trigger tolerance, or their normals turned by about 30 degrees), and
+//! every [`RECOUNT`] frames, the parts
 //! are counted from the refitted cones; when the count (clamped to [`count`,
 //! [`max_particles`]]) differs from the particles', [`Sensor::follow_parts`]
 //! adds particles where parts appeared and merges them where parts vanished.
@@ -28,7 +29,7 @@ use std::time::Instant;
 /// Most frames between two part counts. A count refits the BVH (the exact
 /// method's cost on a quiet frame is at least its refit), so on a shape at rest
 /// it costs 1/64 of the exact method; a moving shape is recounted when it moved
-/// ([`Probes`]), so the period only bounds how long a change that the probes
+/// (see the module documentation), so the period only bounds how long a change that the probes
 /// cannot see (within a part, between particles) goes uncounted.
 pub const RECOUNT: u64 = 64;
 

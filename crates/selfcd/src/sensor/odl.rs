@@ -7,7 +7,8 @@
 //! space, with three cases:
 //!
 //! - Different components ([`super::components`]): no surface path, ro is
-//!   infinite (t = 1 in the force law: attraction only).
+//!   infinite (no repulsion; attraction only, with t against the rest chord:
+//!   see [`super::forces`]).
 //! - Flat rest shape (every vertex within [`FLAT_TOLERANCE`] of one plane):
 //!   the straight rest segment, ro = |R_j - R_i|, direction R_j - R_i; exact
 //!   whenever the segment stays on the sheet (a lower bound across holes or notches).
