@@ -366,17 +366,15 @@ fn sensor_gated_against_brute_counts_what_the_gate_missed() {
             missed, missed_expected,
             "{name}: misses are the contacts on untriggered frames"
         );
+        // The crumple too: particles added where convex parts appear, and
+        // parts recounted as soon as the surface bends under the particles,
+        // catch its local folds (all 1,605 missed with 4 fixed particles, 1
+        // with a recount every 16 frames).
         let contacts: u64 = brute.frames.iter().map(|r| r.stats.contacts).sum();
-        if *name == "crumple" {
-            // Particles added where convex parts appear catch the crumple's
-            // local folds (before they followed the parts: all 1,605 missed).
-            assert!(
-                missed * 100 <= contacts,
-                "crumple: {missed} of {contacts} missed"
-            );
-        } else {
-            assert_eq!(missed, 0, "{name}: the gate skipped frames with contacts");
-        }
+        assert_eq!(
+            missed, 0,
+            "{name}: the gate skipped {missed} of {contacts} contacts"
+        );
     }
 }
 
