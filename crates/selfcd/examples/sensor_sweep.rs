@@ -13,7 +13,7 @@
 //!
 //! ```text
 //! cargo run --release -p selfcd --example sensor_sweep [-- [--big] [--count K] | --sweep [--fine]]
-//! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--settle N] [--data DIR] [--only NAME,...]
+//! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--settle N] [--data DIR] [--only NAME,=EXACT,...]
 //! cargo run --release -p selfcd --example sensor_sweep -- --sweep-gate
 //! ```
 
@@ -507,8 +507,15 @@ fn table(args: &[String]) {
     let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
     let data = arg_value(args, "--data").unwrap_or("/work/shared/data");
     let only = arg_value(args, "--only");
-    // `--only a,b`: rows whose mesh name contains a or b.
-    let keep = |name: &str| only.is_none_or(|o| o.split(',').any(|w| name.contains(w)));
+    // `--only a,b`: rows whose mesh name contains a or b; `=a`: named exactly a.
+    let keep = |name: &str| {
+        only.is_none_or(|o| {
+            o.split(',').any(|w| match w.strip_prefix('=') {
+                Some(exact) => name == exact,
+                None => name.contains(w),
+            })
+        })
+    };
     let mut meshes: Vec<(String, Arc<Mesh>)> = vec![
         ("flat cloth 21x21".into(), grid(21, 1.0)),
         ("flat cloth 101x101".into(), grid(101, 1.0)),

@@ -366,17 +366,15 @@ fn sensor_gated_against_brute_counts_what_the_gate_missed() {
             missed, missed_expected,
             "{name}: misses are the contacts on untriggered frames"
         );
+        // The crumple too: particles added where convex parts appear, and
+        // parts recounted as soon as the surface bends under the particles,
+        // catch its local folds (all 1,605 missed with 4 fixed particles, 1
+        // with a recount every 16 frames).
         let contacts: u64 = brute.frames.iter().map(|r| r.stats.contacts).sum();
-        if *name == "crumple" {
-            // Particles added where convex parts appear catch the crumple's
-            // local folds (before they followed the parts: all 1,605 missed).
-            assert!(
-                missed * 100 <= contacts,
-                "crumple: {missed} of {contacts} missed"
-            );
-        } else {
-            assert_eq!(missed, 0, "{name}: the gate skipped frames with contacts");
-        }
+        assert_eq!(
+            missed, 0,
+            "{name}: the gate skipped {missed} of {contacts} contacts"
+        );
     }
 }
 
@@ -602,10 +600,12 @@ fn geodesic_original_distance_matches_the_unrolled_cylinder() {
             let exact = (points[j].rest_position(&flat) - points[i].rest_position(&flat))
                 / flat.mean_edge_length();
             let len = path.length * curved.mean_edge_length() / flat.mean_edge_length();
-            if path.length >= CUT {
-                // Beyond the field's reach: at least the reach, at most the true distance.
+            if exact.length() > CUT - 2.0 {
+                // At or beyond the field's reach: a lower bound of the true
+                // distance, and not below the reach less a triangle's edge.
                 assert!(
-                    exact.length() > CUT - 2.0 && len <= exact.length() * 1.03,
+                    len <= exact.length() * 1.03 + 0.5
+                        && len >= (exact.length() * 0.97 - 0.5).min(CUT - 2.0),
                     "{i}->{j}: {len} vs {}",
                     exact.length()
                 );

@@ -5,29 +5,94 @@
 //! [`super::compare::compare_methods`] counts what it misses.
 //!
 //! The particle count follows the convex parts of the current shape
-//! ([`crate::sensor::parts`]): every [`RECOUNT`] frames, and on every
-//! triggered frame (whose refit is paid anyway), the parts are counted from the
-//! refitted cones; when the count (clamped to [`count`, [`max_particles`]])
-//! differs from the particles', [`Sensor::follow_parts`] adds particles where
-//! parts appeared and merges them where parts vanished. Otherwise the
-//! particles persist as they are.
+//! ([`crate::sensor::parts`]): on every triggered frame (whose refit is paid
+//! anyway), on a frame where the shape moved since the last count (a distance
+//! between the particles' surface points of that count changed by more than
+//! the trigger tolerance, or their normals turned by about 30 degrees), and
+//! every [`RECOUNT`] frames, the parts
+//! are counted from the refitted cones; when the count (clamped to [`count`,
+//! [`max_particles`]]) differs from the particles', [`Sensor::follow_parts`]
+//! adds particles where parts appeared and merges them where parts vanished.
+//! Otherwise the particles persist as they are.
 
 use super::hierarchy::BvhDetector;
 use super::{Detection, Detector, Method};
 use crate::error::Result;
 use crate::mesh::Mesh;
 use crate::sensor::parts::{convex_parts, Parts};
-use crate::sensor::{Relaxation, Sensor, SensorParams};
+use crate::sensor::{Relaxation, Sensor, SensorParams, SurfacePoint};
 use crate::stats::FrameStats;
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Frames between two part counts on quiet frames. A count refits the BVH
-/// (the exact method's cost on a quiet frame is at least its refit), so a
-/// count every 16 frames costs at most 1/16 = 6.25% of the exact method,
-/// which leaves the relaxation the rest of the 10% quiet-frame budget.
-pub const RECOUNT: u64 = 16;
+/// Most frames between two part counts. A count refits the BVH (the exact
+/// method's cost on a quiet frame is at least its refit), so on a shape at rest
+/// it costs 1/64 of the exact method; a moving shape is recounted when it moved
+/// (see the module documentation), so the period only bounds how long a change that the probes
+/// cannot see (within a part, between particles) goes uncounted.
+pub const RECOUNT: u64 = 64;
+
+/// The shape seen at the last part count: the particles' surface points then,
+/// and, for chain pairs of them (each point with the next and with the one half
+/// the list away), their distance and the cosine between their triangles'
+/// normals. A rigid motion changes neither; a fold, roll or crumple that
+/// changes the parts bends the surface between some pair (the cosine moves) or
+/// brings it closer (the distance shrinks). O(particles) per frame.
+#[derive(Debug, Clone, Default)]
+struct Probes {
+    points: Vec<SurfacePoint>,
+    /// (distance, cosine) of every chain pair at the last count.
+    then: Vec<(f64, f64)>,
+}
+
+/// A probe pair's normals turned by more than this (cosine change: about 30
+/// degrees from parallel) since the last count: the parts may have changed.
+const TURN: f64 = 0.134;
+
+impl Probes {
+    /// Probes at the particles `points` in the shape `positions`.
+    fn new(mesh: &Mesh, points: &[SurfacePoint], positions: &[DVec3]) -> Probes {
+        let mut probes = Probes {
+            points: points.to_vec(),
+            then: Vec::new(),
+        };
+        probes.then = probes.pairs(mesh, positions).collect();
+        probes
+    }
+
+    /// (distance, normal cosine) of the chain pairs in the shape `positions`.
+    fn pairs<'a>(
+        &'a self,
+        mesh: &'a Mesh,
+        positions: &'a [DVec3],
+    ) -> impl Iterator<Item = (f64, f64)> + 'a {
+        let k = self.points.len();
+        let at = move |i: usize| {
+            let p = &self.points[i % k];
+            let [a, b, c] = mesh.corners(positions, p.tri as usize);
+            (
+                p.position(mesh, positions),
+                (b - a).cross(c - a).normalize_or_zero(),
+            )
+        };
+        (0..k).flat_map(move |i| {
+            let (p, n) = at(i);
+            [i + 1, i + k / 2].map(|j| {
+                let (q, m) = at(j);
+                (p.distance(q), n.dot(m))
+            })
+        })
+    }
+
+    /// True when a chain pair came closer or parted by more than `limit`, or
+    /// its normals turned by more than [`TURN`], since the probes were made.
+    fn moved(&self, mesh: &Mesh, positions: &[DVec3], limit: f64) -> bool {
+        self.pairs(mesh, positions)
+            .zip(&self.then)
+            .any(|((d, c), &(d0, c0))| !((d - d0).abs() <= limit && (c - c0).abs() <= TURN))
+    }
+}
 
 /// Most particles on a mesh of `triangles` triangles: sqrt(triangles / 4).
 /// One relaxation update costs k^2 pair terms and a quiet frame of the exact
@@ -48,6 +113,10 @@ pub struct SensorGatedDetector {
     bounds: (usize, usize),
     /// Frames detected so far.
     frame: u64,
+    /// Frame of the last part count.
+    counted: u64,
+    /// The shape at the last part count.
+    probes: Probes,
 }
 
 impl SensorGatedDetector {
@@ -79,6 +148,8 @@ impl SensorGatedDetector {
             refit_every_frame: params.refit_every_frame,
             bounds,
             frame: 0,
+            counted: 0,
+            probes: Probes::default(),
         })
     }
 
@@ -91,12 +162,26 @@ impl SensorGatedDetector {
     /// them. Counting the parts visits only the nodes above them; the O(n)
     /// labelling runs only when the count asks for particles to be added or merged.
     fn follow_parts(&mut self, positions: &[DVec3]) {
+        self.counted = self.frame;
         let target = convex_parts(self.bvh.bvh()).clamp(self.bounds.0, self.bounds.1);
-        if target == self.sensor.points().len() {
-            return;
+        if target != self.sensor.points().len() {
+            let parts = Parts::new(self.bvh.bvh(), self.bvh.mesh(), positions);
+            self.sensor.follow_parts(&parts, target);
         }
-        let parts = Parts::new(self.bvh.bvh(), self.bvh.mesh(), positions);
-        self.sensor.follow_parts(&parts, target);
+        self.probes = Probes::new(self.bvh.mesh(), self.sensor.points(), positions);
+    }
+
+    /// True when the parts are due for a count before this frame's relaxation:
+    /// the first frame, [`RECOUNT`] frames after the last count, or the shape
+    /// moved by more than the trigger tolerance since then.
+    fn recount_due(&self, positions: &[DVec3]) -> bool {
+        self.frame == 0
+            || self.frame - self.counted >= RECOUNT
+            || self.probes.moved(
+                self.bvh.mesh(),
+                positions,
+                self.sensor.params().tolerance * self.sensor.unit(),
+            )
     }
 }
 
@@ -126,8 +211,7 @@ impl Detector for SensorGatedDetector {
             bvh.refit(positions);
             t0.elapsed().as_secs_f64()
         };
-        let recount = self.frame.is_multiple_of(RECOUNT);
-        self.frame += 1;
+        let recount = self.recount_due(positions);
         let refitted = self.refit_every_frame || recount;
         let mut refit = if refitted {
             timed_refit(&mut self.bvh)
@@ -156,6 +240,7 @@ impl Detector for SensorGatedDetector {
             Detection::default()
         };
         self.particles = self.sensor.positions(positions);
+        self.frame += 1;
         det.stats.refit_time = refit;
         write_sensor(&mut det.stats, &relax, sensor_time);
         Ok(det)
@@ -167,5 +252,40 @@ impl Detector for SensorGatedDetector {
 
     fn particles(&self) -> Vec<DVec3> {
         self.particles.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{grid, Deformation};
+    use glam::DQuat;
+
+    #[test]
+    fn probes_ignore_rigid_motion_and_see_a_fold() {
+        let (v, f) = grid(21, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let points: Vec<SurfacePoint> = [0, 77, 400, 799]
+            .into_iter()
+            .map(SurfacePoint::centroid)
+            .collect();
+        let probes = Probes::new(&mesh, &points, mesh.rest());
+        let limit = 3.0 * mesh.mean_edge_length();
+        let turn = DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 1.0);
+        let rigid: Vec<DVec3> = mesh
+            .rest()
+            .iter()
+            .map(|&p| turn * p + DVec3::new(5.0, -2.0, 7.0))
+            .collect();
+        assert!(!probes.moved(&mesh, mesh.rest(), limit));
+        assert!(!probes.moved(&mesh, &rigid, limit));
+        for (angle, moved) in [(0.1, false), (2.0, true)] {
+            let folded = Deformation::Fold {
+                angle,
+                radius: 0.05,
+            }
+            .apply(mesh.rest());
+            assert_eq!(probes.moved(&mesh, &folded, limit), moved, "fold {angle}");
+        }
     }
 }

@@ -12,14 +12,24 @@
 //! divided by the mean rest edge length L before use, so a and b, and the
 //! forces, do not depend on the mesh's scale. Pairs with ro = 0 (one particle
 //! on top of another in rest space) exert nothing; with rs = 0 the attraction
-//! has no direction and is left out. Between components ro is infinite: t = 1
-//! and no repulsion.
+//! has no direction and is left out. Between components ro is infinite: no
+//! repulsion, and attraction only (t below clamped at 0).
 //!
 //! On a curved rest shape t is measured against the rest chord c0 = |R_j - R_i|
 //! instead, t = (c0 - rs) / c0: how much closer the pair is than at rest. The
 //! paper's t is that on its flat sheet (c0 = ro); with ro in its place, every
 //! pair of a sphere or tube at rest would attract (the chord is shorter than the
 //! geodesic) and the particles would bunch up where nothing folded.
+//!
+//! Between components t is measured against the rest chord too, clamped to
+//! [0, 1]: t = max(0, (c0 - rs) / c0). The paper's t = 1 there pulls every
+//! particle towards every particle of every other component at any distance,
+//! with nothing to balance it but the own component's repulsion: the body's
+//! particles were pulled towards its seven small components and never settled
+//! (a garment on a body likewise). Measured against the rest chord, pieces that
+//! keep their rest placement (a garment worn on a body) exert nothing on each
+//! other, and pieces that approach each other (a sheet coming down on another)
+//! attract as t rises towards 1.
 
 use super::odl::{OriginalDistance, Path};
 use super::particle::SurfacePoint;
@@ -65,7 +75,11 @@ pub fn pair_force(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> DVec3 {
     let chord = j.current - i.current;
     let rs = chord.length();
     let c0 = if path.chord > TINY { path.chord } else { ro };
-    let t = if ro.is_finite() { (c0 - rs) / c0 } else { 1.0 };
+    let t = match (ro.is_finite(), c0.is_finite()) {
+        (true, _) => (c0 - rs) / c0,
+        (false, true) => ((c0 - rs) / c0).max(0.0),
+        (false, false) => 1.0,
+    };
     let attract = if rs > TINY {
         chord * (t * a / (rs * rs * rs))
     } else {

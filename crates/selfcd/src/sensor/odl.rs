@@ -7,7 +7,8 @@
 //! space, with three cases:
 //!
 //! - Different components ([`super::components`]): no surface path, ro is
-//!   infinite (t = 1 in the force law: attraction only).
+//!   infinite (no repulsion; attraction only, with t against the rest chord:
+//!   see [`super::forces`]).
 //! - Flat rest shape (every vertex within [`FLAT_TOLERANCE`] of one plane):
 //!   the straight rest segment, ro = |R_j - R_i|, direction R_j - R_i; exact
 //!   whenever the segment stays on the sheet (a lower bound across holes or notches).
@@ -41,8 +42,14 @@ pub const FLAT_TOLERANCE: f64 = 1e-6;
 pub const REFRESH: f64 = 0.5;
 /// Below this ODL (mean edges) the chord replaces the geodesic field.
 pub const NEAR: f64 = 2.0;
-/// Reach of a geodesic field (mean edges).
-pub const CUT: f64 = 32.0;
+/// Least reach of a geodesic field (mean edges). The trigger only needs the
+/// fields of pairs closer than the trigger distance (3 mean edges by default),
+/// to tell whether their original distance exceeds the straight-line distance
+/// by 1 / (1 - [`super::relax::FOLD_T`]); beyond the reach ro is the lower bound
+/// max(chord, reach - the particle triangle's longest edge), and the repulsion there is b / ro^2 <= b / 144 along the
+/// rest chord. A field's cost grows with the square of its reach (32 before:
+/// 7 times the vertices, and most of the sensor's time on curved meshes).
+pub const CUT: f64 = 12.0;
 /// Grid of the normalised rest copy (mean-edge units).
 const SNAP: f64 = 1.0 / 4_294_967_296.0;
 
@@ -90,11 +97,14 @@ pub fn flatness_deviation(mesh: &Mesh) -> f64 {
 pub struct Path {
     /// ro in mean-edge units; infinite between components.
     pub length: f64,
-    /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest shape).
+    /// The rest chord |R_j - R_i| in mean-edge units (= ro on a flat rest
+    /// shape; finite between components too).
     pub chord: f64,
     /// A lower bound of ro: `length` less the field's interpolation error (the
     /// longest rest edge of the first particle's triangle: a linearly
-    /// interpolated distance overestimates by at most that), never below the chord.
+    /// interpolated distance overestimates by at most that) and less the
+    /// field's staleness (its source is up to [`REFRESH`] from the second
+    /// particle), never below the chord.
     pub lower: f64,
     /// Rest-space direction at the first particle towards the second (in its
     /// triangle's plane up to the chord case); zero between components or when undefined.
@@ -117,6 +127,8 @@ pub struct OriginalDistance {
     /// Rest positions relative to the bounds' low corner, in mean-edge units, snapped to [`SNAP`].
     rest: Vec<DVec3>,
     fields: Vec<Option<Field>>,
+    /// Reach of the fields (mean edges, at least [`CUT`]).
+    reach: f64,
     marcher: Marcher,
     /// Geodesic fields computed so far (a cost counter).
     pub fields_computed: u64,
@@ -142,6 +154,7 @@ impl OriginalDistance {
             flat,
             rest,
             fields: Vec::new(),
+            reach: CUT,
             marcher: Marcher::default(),
             fields_computed: 0,
             vertices_marched: 0,
@@ -156,6 +169,25 @@ impl OriginalDistance {
     /// Component id of every triangle.
     pub fn components(&self) -> &Arc<Vec<u32>> {
         &self.component
+    }
+
+    /// Sets the reach of the fields to `reach` mean edges (at least [`CUT`]);
+    /// fields of another reach are dropped (recomputed on the next refresh).
+    pub fn set_reach(&mut self, reach: f64) {
+        let reach = if reach.is_finite() {
+            reach.max(CUT)
+        } else {
+            CUT
+        };
+        if reach != self.reach {
+            self.reach = reach;
+            self.fields.clear();
+        }
+    }
+
+    /// Reach of the fields (mean edges).
+    pub fn reach(&self) -> f64 {
+        self.reach
     }
 
     /// Makes the field of every particle current (curved rest shapes only):
@@ -175,7 +207,7 @@ impl OriginalDistance {
             let mut dist = slot.take().map(|f| f.dist).unwrap_or_default();
             self.vertices_marched += self
                 .marcher
-                .distance_field(&self.mesh, &self.rest, p, CUT, &mut dist)
+                .distance_field(&self.mesh, &self.rest, p, self.reach, &mut dist)
                 as u64;
             self.fields_computed += 1;
             *slot = Some(Field { source: r, dist });
@@ -191,15 +223,15 @@ impl OriginalDistance {
     /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
     pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
         let (pi, pj) = (&points[i], &points[j]);
+        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
         if self.component[pi.tri as usize] != self.component[pj.tri as usize] {
             return Path {
                 length: f64::INFINITY,
-                chord: f64::INFINITY,
+                chord: chord.length(),
                 lower: f64::INFINITY,
                 direction: DVec3::ZERO,
             };
         }
-        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
         let straight = Path {
             length: chord.length(),
             chord: chord.length(),
@@ -212,10 +244,14 @@ impl OriginalDistance {
         };
         let corners = self.mesh.triangles()[pi.tri as usize].map(|v| field.dist[v as usize]);
         let along: f64 = corners.iter().zip(&pi.bary).map(|(d, b)| d * b).sum();
+        let [a, b, c] = self.mesh.triangles()[pi.tri as usize].map(|v| self.rest[v as usize]);
+        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
         if along.is_infinite() {
+            // A corner lies beyond the reach, and the particle within `longest` of it.
+            let beyond = straight.length.max(self.reach - longest);
             return Path {
-                length: straight.length.max(CUT),
-                lower: straight.length.max(CUT),
+                length: beyond,
+                lower: beyond,
                 ..straight
             };
         }
@@ -227,11 +263,13 @@ impl OriginalDistance {
             .map(|(d1, d2)| -(d1 * (corners[1] - corners[0]) + d2 * (corners[2] - corners[0])))
             .filter(|g| g.length_squared() > 0.0 && g.is_finite())
             .unwrap_or(chord);
-        let [a, b, c] = self.mesh.triangles()[pi.tri as usize].map(|v| self.rest[v as usize]);
-        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
         Path {
             length: along,
-            lower: (along - longest).max(straight.length),
+            // The field is from j's source, up to REFRESH from j: its value
+            // at i is off by at most that offset (triangle inequality, with
+            // the rest chord standing in for the short surface path).
+            lower: (along - longest - field.source.distance(pj.position(&self.mesh, &self.rest)))
+                .max(straight.length),
             direction,
             ..straight
         }

@@ -8,7 +8,7 @@
 //! the maximum step, and walked along the surface ([`super::walk`]). Then the
 //! closest folded pair by straight-line distance is found (see
 //! [`Sensor::closest`]), and the sensor triggers when that distance is below
-//! the tolerance.
+//! the tolerance; the relaxation also stops as soon as it triggers.
 
 use super::forces::{forces, Local};
 use super::odl::OriginalDistance;
@@ -175,6 +175,8 @@ impl Sensor {
                 "the particle sensor needs a mesh with a positive mean edge length".into(),
             ));
         }
+        let mut odl = odl;
+        odl.set_reach(2.0 * params.tolerance / (1.0 - FOLD_T));
         Ok(Sensor {
             mesh,
             norm,
@@ -243,8 +245,13 @@ impl Sensor {
     }
 
     /// Adds `length` (metres, >= 0) to the trigger distance: the detector's proximity thickness.
+    /// The geodesic fields reach at least 2 / (1 - [`FOLD_T`]) trigger
+    /// distances, so that every pair close enough to trigger is judged folded
+    /// or not from its field, not from the cut ([`OriginalDistance::set_reach`]).
     pub fn set_margin(&mut self, length: f64) {
         self.margin = length.max(0.0) / self.unit;
+        self.odl
+            .set_reach(2.0 * self.trigger_distance() / (1.0 - FOLD_T));
     }
 
     /// The trigger distance: tolerance + margin (mean-edge units).
@@ -287,21 +294,27 @@ impl Sensor {
     }
 
     /// [`Sensor::relax`] for positions already checked by the caller.
+    ///
+    /// Besides N_min and N_max, the relaxation stops as soon as the sensor
+    /// triggers: a triggered frame runs the exact traversal, so further
+    /// updates cannot change what the frame finds, and the particles go on
+    /// from where they are on the next frame. On a shape with contacts at rest
+    /// (a garment on a body) every frame triggers and makes one update.
     pub(crate) fn relax_checked(&mut self, positions: &[DVec3]) -> Relaxation {
-        let (mut steps, mut moving) = (0, 0);
-        while steps < self.params.n_max {
-            moving = self.step(positions);
+        let mut steps = 0;
+        loop {
+            let moving = self.step(positions);
             steps += 1;
-            if moving < self.params.n_min {
-                break;
+            let closest = self.closest_in_frame();
+            let triggered = closest.folded && closest.sl < self.trigger_distance();
+            if triggered || moving < self.params.n_min || steps >= self.params.n_max {
+                return Relaxation {
+                    steps,
+                    moving,
+                    closest,
+                    triggered,
+                };
             }
-        }
-        let closest = self.closest_in_frame();
-        Relaxation {
-            steps,
-            moving,
-            closest,
-            triggered: closest.folded && closest.sl < self.trigger_distance(),
         }
     }
 
