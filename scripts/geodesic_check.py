@@ -1,10 +1,10 @@
 """Compares the sensor's geodesic distances (fast marching, `sensor::geodesic`)
 with exact polyhedral geodesics: potpourri3d's edge-flip solver (FlipOut)
 shortens the edge path between two vertices to a geodesic, whose length is
-the reference. Test-only dependency: ``pip install potpourri3d``.
+the reference. Benchmark extra: ``pip install .[bench]`` (or ``pip install potpourri3d``).
 
     cargo run --release -p selfcd --example sensor_geodesic -- MESH.obj 8 12 > d.csv
-    python crates/selfcd/examples/geodesic_check.py MESH.obj d.csv [PAIRS_PER_SOURCE]
+    python scripts/geodesic_check.py MESH.obj d.csv [PAIRS_PER_SOURCE]
 
 Prints, per distance band (mean edges), the number of pairs and the median
 and extreme relative errors (march - exact) / exact.
