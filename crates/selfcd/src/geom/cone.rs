@@ -226,8 +226,9 @@ impl NormalCone {
         }
     }
 
-    /// The half-angle part of [`merge`](Self::merge).
-    #[inline]
+    /// The half-angle part of [`merge`](Self::merge) (inlined into both
+    /// callers, so that the refit's merge pays nothing for the split).
+    #[inline(always)]
     fn merged_half(&self, o: &NormalCone) -> Merged {
         if self.is_full() || o.is_full() {
             return Merged::Full;

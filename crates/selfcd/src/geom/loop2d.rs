@@ -337,7 +337,7 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
 }
 
 /// Lists of up to this many edges in all compare every pair's boxes.
-const SMALL: usize = 48;
+const SMALL: usize = 96;
 
 /// Minimum of two finite numbers (no NaN handling).
 #[inline]
@@ -554,7 +554,7 @@ mod sweep_tests {
         let mut scratch = LoopScratch::default();
         let (mut clear, mut crossed) = (0, 0);
         for round in 0..400 {
-            let n = 5 + round % 90;
+            let n = 5 + round % 200;
             let noise = [0.0, 0.05, 0.3, 1.0][round % 4];
             let square = round % 3 == 0;
             let a = noisy_loop(&mut rng, n, noise, square, 0);
@@ -564,7 +564,7 @@ mod sweep_tests {
                 want,
                 "round {round}"
             );
-            let b = noisy_loop(&mut rng, 3 + round % 40, noise, !square, 1000);
+            let b = noisy_loop(&mut rng, 3 + round % 80, noise, !square, 1000);
             let want2 = all_pairs_reference(&a, Some(&b), 1e-12);
             assert_eq!(
                 all_pairs_clear(&a, Some(&b), 1e-12, &mut scratch),
