@@ -37,8 +37,11 @@ pub fn build(mesh: &Mesh) -> Bvh {
         .unzip();
     boxes.reserve_exact(n.saturating_sub(1));
     cones.reserve_exact(n.saturating_sub(1));
-    let (mut patches, mut level) =
-        rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh));
+    // The leaves' component tags (a serial union-find) alongside the leaves' patches.
+    let ((mut patches, mut level), leaf_tags) = rayon::join(
+        || rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh)),
+        || leaf_component_tags(mesh),
+    );
     let mut children: Vec<[u32; 2]> = Vec::with_capacity(n.saturating_sub(1));
     let mut levels = Vec::new();
     while level.nodes.len() > 1 {
@@ -66,7 +69,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
         levels.push(first..first + pairs.len() as u32);
         level = level.coarsen(&mate, first);
     }
-    let component = component_tags(mesh, &children);
+    let component = component_tags(leaf_tags, &children);
     Bvh {
         n_leaves: n,
         children,
@@ -77,14 +80,18 @@ pub fn build(mesh: &Mesh) -> Bvh {
     }
 }
 
-/// Component tag of every node (see [`Patches::component`]): the leaves'
-/// from the mesh's vertex-connected components, each parent's from its
-/// children (children have smaller ids, so one pass in id order).
-fn component_tags(mesh: &Mesh, children: &[[u32; 2]]) -> Vec<u8> {
-    let mut tags: Vec<u8> = triangle_components(mesh)
+/// Component tag of every leaf (see [`Patches::component`]), from the mesh's
+/// vertex-connected components.
+fn leaf_component_tags(mesh: &Mesh) -> Vec<u8> {
+    triangle_components(mesh)
         .into_iter()
         .map(|c| (c % SEVERAL as u32) as u8)
-        .collect();
+        .collect()
+}
+
+/// Component tag of every node, from the leaves' `tags`: each parent's from
+/// its children (children have smaller ids, so one pass in id order).
+fn component_tags(mut tags: Vec<u8>, children: &[[u32; 2]]) -> Vec<u8> {
     tags.reserve_exact(children.len());
     for &[l, r] in children {
         let (a, b) = (tags[l as usize], tags[r as usize]);
