@@ -14,10 +14,11 @@
 //! (see [`union`]); boxes and cones are fitted as the parents are made, so no
 //! refit follows. The result does not depend on the number of threads.
 
-use super::patch::{merge_contours_with, pack, unpack, Patches};
+use super::patch::{merge_contours_with, pack, unpack, Patches, INELIGIBLE, SEVERAL};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
+use crate::sensor::components::triangle_components;
 use rayon::prelude::*;
 
 /// Builds the hierarchy of `mesh` on its rest shape, with boxes and cones fitted to it.
@@ -36,8 +37,11 @@ pub fn build(mesh: &Mesh) -> Bvh {
         .unzip();
     boxes.reserve_exact(n.saturating_sub(1));
     cones.reserve_exact(n.saturating_sub(1));
-    let (mut patches, mut level) =
-        rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh));
+    // The leaves' component tags (a serial union-find) alongside the leaves' patches.
+    let ((mut patches, mut level), leaf_tags) = rayon::join(
+        || rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh)),
+        || leaf_component_tags(mesh),
+    );
     let mut children: Vec<[u32; 2]> = Vec::with_capacity(n.saturating_sub(1));
     let mut levels = Vec::new();
     while level.nodes.len() > 1 {
@@ -65,14 +69,35 @@ pub fn build(mesh: &Mesh) -> Bvh {
         levels.push(first..first + pairs.len() as u32);
         level = level.coarsen(&mate, first);
     }
+    let component = component_tags(leaf_tags, &children);
     Bvh {
         n_leaves: n,
         children,
         levels,
         boxes,
         cones,
-        patches: patches.finish(),
+        patches: patches.finish(component),
     }
+}
+
+/// Component tag of every leaf (see [`Patches::component`]), from the mesh's
+/// vertex-connected components.
+fn leaf_component_tags(mesh: &Mesh) -> Vec<u8> {
+    triangle_components(mesh)
+        .into_iter()
+        .map(|c| (c % SEVERAL as u32) as u8)
+        .collect()
+}
+
+/// Component tag of every node, from the leaves' `tags`: each parent's from
+/// its children (children have smaller ids, so one pass in id order).
+fn component_tags(mut tags: Vec<u8>, children: &[[u32; 2]]) -> Vec<u8> {
+    tags.reserve_exact(children.len());
+    for &[l, r] in children {
+        let (a, b) = (tags[l as usize], tags[r as usize]);
+        tags.push(if a == b { a } else { SEVERAL });
+    }
+    tags
 }
 
 /// Marks a node without a partner.
@@ -429,16 +454,23 @@ impl PatchBuilder {
             .push(self.eligible[l] && self.eligible[r] && !u.conflict);
     }
 
-    fn finish(mut self) -> Patches {
+    /// The finished patches, ineligible nodes marked in `euler`, with the
+    /// nodes' component tags.
+    fn finish(mut self, component: Vec<u8>) -> Patches {
         for c in [&mut self.contour, &mut self.boundary] {
             c.offsets.shrink_to_fit();
             c.items.shrink_to_fit();
+        }
+        for (e, &ok) in self.euler.iter_mut().zip(&self.eligible) {
+            if !ok {
+                *e = INELIGIBLE;
+            }
         }
         Patches {
             contour: self.contour,
             boundary: self.boundary,
             euler: self.euler,
-            eligible: self.eligible,
+            component,
         }
     }
 }
@@ -563,6 +595,7 @@ mod tests {
         for seed in 0..6 {
             let m = mesh(seed);
             let (topo, bad) = (m.topology(), m.nonmanifold_triangles());
+            let components = triangle_components(&m);
             let bvh = build(&m);
             let p = &bvh.patches;
             for n in 0..bvh.n_nodes() as u32 {
@@ -601,11 +634,19 @@ mod tests {
                 assert_eq!(p.boundary_of(n), &boundary[..], "node {n}");
                 let conflict = edges.values().any(|d| d.len() == 2 && d[0] == d[1]);
                 let eligible = !conflict && tris.iter().all(|&t| !bad[t as usize]);
-                assert_eq!(p.eligible[n as usize], eligible, "node {n}");
+                assert_eq!(p.euler_of(n).is_some(), eligible, "node {n}");
                 if eligible {
                     let euler = verts.len() as i32 - edges.len() as i32 + tris.len() as i32;
-                    assert_eq!(p.euler[n as usize], euler, "node {n}");
+                    assert_eq!(p.euler_of(n), Some(euler), "node {n}");
                 }
+                let mut tags: Vec<u8> = tris
+                    .iter()
+                    .map(|&t| (components[t as usize] % 255) as u8)
+                    .collect();
+                tags.sort_unstable();
+                tags.dedup();
+                let tag = if tags.len() == 1 { tags[0] } else { SEVERAL };
+                assert_eq!(p.component[n as usize], tag, "node {n}");
             }
         }
     }

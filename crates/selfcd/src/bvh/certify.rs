@@ -75,21 +75,21 @@ pub struct ConeCull<'a> {
 }
 
 impl ConeCull<'_> {
-    /// The merged cone of adjacent nodes `a` and `b` when it is positive.
-    /// Cheapest first: the merged cone can only be positive if both are, and
-    /// it is only worth merging for adjacent patches (most overlapping pairs
-    /// in layered cloth are not adjacent).
+    /// Are nodes `a` and `b` adjacent with a positive merged cone? Cheapest
+    /// first: most overlapping pairs in layered cloth lie in different mesh
+    /// components (one byte per node says so), the merged cone can only be
+    /// positive if both are, and only adjacent patches are worth merging.
     #[inline]
-    fn adjacent_positive(&self, a: u32, b: u32) -> Option<NormalCone> {
-        let (ca, cb) = (&self.cones[a as usize], &self.cones[b as usize]);
+    fn adjacent_positive(&self, a: u32, b: u32) -> bool {
         let p = self.patches;
-        if !ca.is_positive()
-            || !cb.is_positive()
-            || !have_common(p.boundary_of(a), p.boundary_of(b))
-        {
-            return None;
+        if !p.may_touch(a, b) {
+            return false;
         }
-        Some(ca.merge(cb)).filter(NormalCone::is_positive)
+        let (ca, cb) = (&self.cones[a as usize], &self.cones[b as usize]);
+        ca.is_positive()
+            && cb.is_positive()
+            && have_common(p.boundary_of(a), p.boundary_of(b))
+            && ca.merge_is_positive(cb)
     }
 }
 
@@ -103,7 +103,7 @@ impl Cull for ConeCull<'_> {
     }
     #[inline]
     fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
-        let culled = self.adjacent_positive(a, b).is_some();
+        let culled = self.adjacent_positive(a, b);
         c.pair_culls += culled as u64;
         culled
     }
@@ -161,11 +161,14 @@ impl<'a> ContourCull<'a> {
     /// loops meet only where the patches do.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
+        let (Some(ea), Some(eb)) = (p.euler_of(a), p.euler_of(b)) else {
+            return false;
+        };
         let (ka, kb) = (p.contour_of(a), p.contour_of(b));
         s.merged.reserve(ka.len() + kb.len());
         let info = merge_contours(ka, kb, &mut s.merged);
         let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
-        let euler = p.euler[a as usize] + p.euler[b as usize] - shared_v + info.shared_edges as i32;
+        let euler = ea + eb - shared_v + info.shared_edges as i32;
         if info.conflict || euler != 1 {
             return false;
         }
@@ -198,7 +201,7 @@ impl Cull for ContourCull<'_> {
             return false;
         }
         c.contour_tests += 1;
-        let ok = p.eligible[n as usize] && p.euler[n as usize] == 1 && {
+        let ok = p.euler_of(n) == Some(1) && {
             let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
             let contour = p.contour_of(n);
             self.disk_is_height_field(contour, &plane, [0.0; 2], &mut s.segs, &mut s.loops)
@@ -209,14 +212,12 @@ impl Cull for ContourCull<'_> {
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        let Some(merged) = self.cones.adjacent_positive(a, b) else {
+        if !self.cones.adjacent_positive(a, b) {
             return false;
-        };
-        let p = &self.bvh.patches;
+        }
+        let (ca, cb) = (&self.bvh.cones[a as usize], &self.bvh.cones[b as usize]);
         c.contour_tests += 1;
-        let ok = p.eligible[a as usize]
-            && p.eligible[b as usize]
-            && self.union_is_height_field(a, b, merged.axis, s);
+        let ok = self.union_is_height_field(a, b, ca.merge(cb).axis, s);
         c.contour_fails += !ok as u64;
         c.pair_culls += ok as u64;
         ok

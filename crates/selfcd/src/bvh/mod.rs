@@ -66,6 +66,6 @@ impl Bvh {
             + csr(&self.patches.contour)
             + csr(&self.patches.boundary)
             + self.patches.euler.capacity() * 4
-            + self.patches.eligible.capacity()
+            + self.patches.component.capacity()
     }
 }

@@ -19,12 +19,22 @@ pub struct Patches {
     pub contour: Csr,
     /// Sorted boundary vertices of each node (the vertices of its contour).
     pub boundary: Csr,
-    /// Euler characteristic V - E + F of each node's patch.
+    /// Euler characteristic V - E + F of each node's patch, or [`INELIGIBLE`]
+    /// when the patch holds a non-manifold element or inconsistent winding
+    /// (the contour test never passes for it).
     pub euler: Vec<i32>,
-    /// False when the patch holds a non-manifold element or inconsistent
-    /// winding: the contour test never passes for it.
-    pub eligible: Vec<bool>,
+    /// A tag of the vertex-connected mesh component of each node's triangles:
+    /// the component id modulo 255, or [`SEVERAL`] when they lie in several
+    /// components. Nodes with different tags, neither [`SEVERAL`], lie in
+    /// different components, so they share no vertex.
+    pub component: Vec<u8>,
 }
+
+/// The Euler characteristic stored for a patch the contour test refuses.
+pub const INELIGIBLE: i32 = i32::MIN / 4;
+
+/// The component tag of a node spanning several components.
+pub const SEVERAL: u8 = u8::MAX;
 
 /// Packs directed edge `a -> b` (edge id `e`) as `e << 1 | (a > b)`.
 #[inline]
@@ -154,6 +164,21 @@ impl Patches {
     #[inline]
     pub fn boundary_of(&self, node: u32) -> &[u32] {
         self.boundary.row(node as usize)
+    }
+
+    /// Euler characteristic of an eligible node (manifold, consistent winding),
+    /// None for the others.
+    #[inline]
+    pub fn euler_of(&self, node: u32) -> Option<i32> {
+        Some(self.euler[node as usize]).filter(|&e| e != INELIGIBLE)
+    }
+
+    /// False when nodes `a` and `b` certainly share no vertex (their triangles
+    /// lie in different mesh components); O(1).
+    #[inline]
+    pub fn may_touch(&self, a: u32, b: u32) -> bool {
+        let (x, y) = (self.component[a as usize], self.component[b as usize]);
+        x == y || x == SEVERAL || y == SEVERAL
     }
 }
 

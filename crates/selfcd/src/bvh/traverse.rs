@@ -211,8 +211,29 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             .self_culled(n, &mut acc.scratch, &mut acc.counters)
     }
 
+    /// The primitive test of two leaves (kept out of the descent's hot loop).
+    #[inline(never)]
+    fn leaf_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+        let adjacent = self.mesh.share_vertex(a as usize, b as usize);
+        if adjacent {
+            acc.counters.adjacent_skips += 1;
+            if V::SKIP_ADJACENT {
+                return;
+            }
+        }
+        acc.counters.primitive_tests += 1;
+        self.visitor.visit_counted(
+            a.min(b),
+            a.max(b),
+            adjacent,
+            &mut acc.items,
+            &mut acc.counters,
+        );
+    }
+
     /// One step of pair(a, b): tests and culls, and returns the pairs to descend
     /// into as (node kept, children of the node split), or None when done.
+    #[inline]
     fn pair_step(
         &self,
         a: u32,
@@ -228,21 +249,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
         if la && lb {
-            let adjacent = self.mesh.share_vertex(a as usize, b as usize);
-            if adjacent {
-                acc.counters.adjacent_skips += 1;
-                if V::SKIP_ADJACENT {
-                    return None;
-                }
-            }
-            acc.counters.primitive_tests += 1;
-            self.visitor.visit_counted(
-                a.min(b),
-                a.max(b),
-                adjacent,
-                &mut acc.items,
-                &mut acc.counters,
-            );
+            self.leaf_pair(a, b, acc);
             return None;
         }
         if !siblings

@@ -182,37 +182,89 @@ impl NormalCone {
         self.half().c > POSITIVE_MARGIN
     }
 
+    /// `self.merge(o).is_positive()`, without building the merged axis, and
+    /// with a cheap early "no" first: the merged half-angle is (h1 + d + h2) / 2
+    /// (or h1 or h2 when one cone holds the other, and then d < h1 - h2 <
+    /// PI - h1 - h2), so when the axes' dot product shows d > PI - h1 - h2,
+    /// i.e. cos d < -cos(h1 + h2), with a margin (1e-6) far above the rounding
+    /// of both sides, the merged cone reaches 90 degrees and is not positive.
+    #[inline]
+    pub fn merge_is_positive(&self, o: &NormalCone) -> bool {
+        if !self.is_positive() || !o.is_positive() {
+            // A merged cone holds both, so it is no narrower than either.
+            return self.merge(o).is_positive();
+        }
+        let (h1, h2) = (self.half(), o.half());
+        if self.axis.dot(o.axis) < -h1.add(h2).c - 1e-6 {
+            return false;
+        }
+        match self.merged_half(o) {
+            Merged::First => self.is_positive(),
+            Merged::Second => o.is_positive(),
+            Merged::Full => false,
+            Merged::Arc { quarter, .. } => quarter.double().c > POSITIVE_MARGIN,
+        }
+    }
+
     /// Smallest cone around the great-circle arc between the axes holding both:
     /// half-angle H = (h1 + d + h2) / 2, axis turned from the first axis towards
     /// the second by H - h1, where d is the angle between the axes.
     #[inline]
     pub fn merge(&self, o: &NormalCone) -> NormalCone {
+        match self.merged_half(o) {
+            Merged::First => *self,
+            Merged::Second => *o,
+            Merged::Full => NormalCone::FULL,
+            Merged::Arc { h, d, quarter } => {
+                let t = h.sub(self.half());
+                // k x a = (b - a cos d) / sin d for k = unit(a x b).
+                let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
+                // Unit up to rounding: one Newton step for 1/|axis| keeps it so without a square root.
+                let axis = axis * (1.5 - 0.5 * axis.length_squared());
+                NormalCone { axis, quarter }
+            }
+        }
+    }
+
+    /// The half-angle part of [`merge`](Self::merge) (inlined into both
+    /// callers, so that the refit's merge pays nothing for the split).
+    #[inline(always)]
+    fn merged_half(&self, o: &NormalCone) -> Merged {
         if self.is_full() || o.is_full() {
-            return NormalCone::FULL;
+            return Merged::Full;
         }
         let (h1, h2) = (self.half(), o.half());
         let d = Angle::between(self.axis, o.axis);
         let (dh1, dh2) = (d.add(h1), d.add(h2));
         if !dh2.at_least_pi() && dh2.le(h1) {
-            return *self;
+            return Merged::First;
         }
         if !dh1.at_least_pi() && dh1.le(h2) {
-            return *o;
+            return Merged::Second;
         }
         let h = self.quarter.add(d.half()).add(o.quarter).widen(MERGE_SLACK);
         if h.at_least_pi() || d.s == 0.0 {
-            return NormalCone::FULL;
+            return Merged::Full;
         }
-        let t = h.sub(h1);
-        // k x a = (b - a cos d) / sin d for k = unit(a x b).
-        let axis = self.axis * t.c + (o.axis - self.axis * d.c) * (t.s / d.s);
-        // Unit up to rounding: one Newton step for 1/|axis| keeps it so without a square root.
-        let axis = axis * (1.5 - 0.5 * axis.length_squared());
-        NormalCone {
-            axis,
+        Merged::Arc {
+            h,
+            d,
             quarter: h.half(),
         }
     }
+}
+
+/// What a merge of two cones is, before its axis is built.
+enum Merged {
+    /// The first cone holds the second.
+    First,
+    /// The second cone holds the first.
+    Second,
+    /// Every direction.
+    Full,
+    /// The cone around the arc between the axes: half-angle `h`, its half
+    /// `quarter`, and the angle `d` between the axes.
+    Arc { h: Angle, d: Angle, quarter: Angle },
 }
 
 #[cfg(test)]
@@ -264,6 +316,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn merge_is_positive_agrees_with_merge() {
+        let mut rng = SplitMix::new(5);
+        let (mut yes, mut no) = (0, 0);
+        for _ in 0..20000 {
+            // Half-angles up to 90 degrees, and axes often nearly opposite.
+            let a = NormalCone::new(rng.direction(), 0.5 * PI * rng.unit());
+            let dir = if rng.unit() < 0.5 {
+                -a.axis + 0.3 * rng.direction()
+            } else {
+                rng.direction()
+            };
+            let b = NormalCone::new(dir, 0.5 * PI * rng.unit() * rng.unit());
+            let want = a.merge(&b).is_positive();
+            assert_eq!(a.merge_is_positive(&b), want, "{a:?} {b:?}");
+            yes += want as u32;
+            no += !want as u32;
+        }
+        assert!(yes > 1000 && no > 1000, "{yes} {no}");
     }
 
     #[test]

@@ -5,7 +5,6 @@
 //! only with a margin far above the rounding of the projection; near-touching
 //! is "not simple". A `false` costs speed (no cull), never a missed contact.
 
-use crate::geom::predicates::orient2d_value;
 use glam::DVec3;
 
 /// A contour edge projected on the plane normal to a cone axis: endpoints and vertex ids.
@@ -89,10 +88,20 @@ fn extent2(segs: &[Seg]) -> f64 {
     (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)
 }
 
+/// Twice the signed area of (a, b, c) in floating point. Its rounding error is
+/// below 4 ulp of |b - a| |c - a|, so any comparison against the margins used
+/// here (at least 1e-12 times the squared extent of the loops) has the sign of
+/// the exact value; no adaptive predicate is needed.
+#[inline]
+fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
 /// True when two projected edges meet only where the mesh says they may: not
 /// at all, at their one shared vertex (without folding back onto each other),
 /// or everywhere when they are the same mesh edge (the glue of two patches).
 /// Decided with a margin `eps` on orientation values: near-touching is "not clear".
+#[inline(never)]
 fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
     let shared = |v: u32| b.v.contains(&v);
     match (shared(a.v[0]), shared(a.v[1])) {
@@ -102,7 +111,7 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
                 a.p[0][k].max(a.p[1][k]) < b.p[0][k].min(b.p[1][k])
                     || b.p[0][k].max(b.p[1][k]) < a.p[0][k].min(a.p[1][k])
             });
-            let side = |s: &Seg, p: [f64; 2]| orient2d_value(s.p[0], s.p[1], p);
+            let side = |s: &Seg, p: [f64; 2]| orient(s.p[0], s.p[1], p);
             let one_side = |s: &Seg, t: &Seg| {
                 let (x, y) = (side(s, t.p[0]), side(s, t.p[1]));
                 (x > eps && y > eps) || (x < -eps && y < -eps)
@@ -122,7 +131,7 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
                 b.p[0]
             };
             let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
-            orient2d_value(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
+            orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
         }
     }
 }
@@ -134,8 +143,12 @@ pub struct LoopScratch {
     next: Vec<[u32; 2]>,
     /// Box of each edge.
     boxes: Vec<EdgeBox>,
-    /// Sweep events: (min, max) of each edge along the sweep direction, edge id.
-    events: Vec<(f64, f64, u32)>,
+    /// Extent (min, max) of each edge along the sweep direction.
+    spans: Vec<(f64, f64)>,
+    /// Edge ids ordered by the bucket of their span's start.
+    order: Vec<u32>,
+    /// Start of each bucket in `order` (one more entry than buckets).
+    start: Vec<u32>,
 }
 
 /// Empty slot of the vertex table.
@@ -209,10 +222,14 @@ pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
 }
 
 /// Every pair of edges (one from `a`, one from `b`; or two distinct edges of
-/// `a` when `b` is None) is clear (see `edges_clear`). Edges whose closed boxes
-/// are apart are clear, so only pairs with overlapping boxes are compared:
-/// all pairs' boxes for short lists, a sweep along one direction for longer
-/// ones. Non-finite coordinates are never clear.
+/// `a` when `b` is None) is clear (see `edges_clear`). Edges whose extents
+/// along a sweep direction, or whose closed boxes, are apart are clear, so
+/// only pairs overlapping in both are compared. The extents are bucketed by
+/// their start (m buckets over the whole range, a counting sort), and each
+/// edge is compared with the edges starting within its own extent: every
+/// overlapping pair has one edge starting inside the other's extent, and is
+/// met exactly once. A loop crosses each place along the sweep a few times
+/// only, so this is O(m) expected. Non-finite coordinates are never clear.
 fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScratch) -> bool {
     let m = a.len() + b.map_or(0, <[Seg]>::len);
     let get = |i: usize| match b {
@@ -221,45 +238,125 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
     };
     // Pairs to compare: distinct edges of one list, or one edge of each list.
     let wanted = |i: usize, j: usize| b.is_none() || ((i < a.len()) != (j < a.len()));
-    let boxes = &mut scratch.boxes;
-    boxes.clear();
-    for i in 0..m {
-        let p = get(i).p;
-        if !p.iter().flatten().all(|x| x.is_finite()) {
-            return false;
-        }
-        boxes.push(EdgeBox::of(&p));
-    }
-    let clear = |i: usize, j: usize| !wanted(i, j) || edges_clear(get(i), get(j), eps);
-    if m <= 16 {
-        return (0..m).all(|i| (i + 1..m).all(|j| !boxes[i].meets(&boxes[j]) || clear(i, j)));
-    }
     // Sweep along a direction 22.5 degrees off the plane's axes, so that the
     // axis-aligned and diagonal edges of grid-like meshes do not all share a range.
     const D: [f64; 2] = [0.923_879_532_511_286_7, 0.382_683_432_365_089_8];
-    let ev = &mut scratch.events;
-    ev.clear();
-    ev.extend((0..m).map(|i| {
-        let p = get(i).p;
-        let (x, y) = (
-            D[0] * p[0][0] + D[1] * p[0][1],
-            D[0] * p[1][0] + D[1] * p[1][1],
-        );
-        (x.min(y), x.max(y), i as u32)
-    }));
-    ev.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-    for (k, &(_, hi, i)) in ev.iter().enumerate() {
-        for &(lo, _, j) in &ev[k + 1..] {
-            if lo > hi {
-                break;
+    let LoopScratch {
+        boxes,
+        spans,
+        order,
+        start,
+        ..
+    } = scratch;
+    boxes.clear();
+    spans.clear();
+    let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
+    for s in a.iter().chain(b.unwrap_or(&[])) {
+        let [[x0, y0], [x1, y1]] = s.p;
+        // A NaN or infinite coordinate (or a sum overflowing) is never clear.
+        if !(x0 + y0 + x1 + y1).is_finite() {
+            return false;
+        }
+        boxes.push(EdgeBox {
+            lo: [min(x0, x1), min(y0, y1)],
+            hi: [max(x0, x1), max(y0, y1)],
+        });
+    }
+    let (ba, bb) = boxes.split_at(a.len());
+    match b {
+        // Few edges: every pair's boxes, which is cheaper than bucketing.
+        None if m <= SMALL => {
+            return (0..m).all(|i| {
+                let (x, s) = (&ba[i], &a[i]);
+                ba[i + 1..]
+                    .iter()
+                    .zip(&a[i + 1..])
+                    .all(|(y, t)| !x.meets(y) || edges_clear(s, t, eps))
+            })
+        }
+        Some(b) if m <= SMALL => {
+            return ba.iter().zip(a).all(|(x, s)| {
+                bb.iter()
+                    .zip(b)
+                    .all(|(y, t)| !x.meets(y) || edges_clear(s, t, eps))
+            })
+        }
+        _ => {}
+    }
+    for i in 0..m {
+        let [[x0, y0], [x1, y1]] = get(i).p;
+        let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
+        let span = (min(u, v), max(u, v));
+        first = min(first, span.0);
+        last = max(last, span.1);
+        spans.push(span);
+    }
+    // Bucket of a position along the sweep: monotone in the position, so the
+    // buckets from that of lo to that of hi hold every edge starting in [lo, hi].
+    let scale = if last > first {
+        m as f64 / (last - first)
+    } else {
+        0.0
+    };
+    let bucket = |x: f64| (((x - first) * scale) as u32).min(m as u32 - 1) as usize;
+    start.clear();
+    start.resize(m + 1, 0);
+    for s in spans.iter() {
+        start[bucket(s.0) + 1] += 1;
+    }
+    for k in 0..m {
+        start[k + 1] += start[k];
+    }
+    order.clear();
+    order.resize(m, 0);
+    for (i, s) in spans.iter().enumerate() {
+        // `start[k]` is advanced past each placed edge, then restored below.
+        let k = bucket(s.0);
+        order[start[k] as usize] = i as u32;
+        start[k] += 1;
+    }
+    for k in (1..=m).rev() {
+        start[k] = start[k - 1];
+    }
+    start[0] = 0;
+    for (i, &(lo, hi)) in spans.iter().enumerate() {
+        let range = start[bucket(lo)] as usize..start[bucket(hi) + 1] as usize;
+        for &j in &order[range] {
+            let j = j as usize;
+            let lj = spans[j].0;
+            // Each overlapping pair once: from the edge starting first (ties by id).
+            if lj < lo || lj > hi || (lj == lo && j <= i) || !wanted(i, j) {
+                continue;
             }
-            let (i, j) = (i as usize, j as usize);
-            if boxes[i].meets(&boxes[j]) && !clear(i, j) {
+            if boxes[i].meets(&boxes[j]) && !edges_clear(get(i), get(j), eps) {
                 return false;
             }
         }
     }
     true
+}
+
+/// Lists of up to this many edges in all compare every pair's boxes.
+const SMALL: usize = 96;
+
+/// Minimum of two finite numbers (no NaN handling).
+#[inline]
+fn min(x: f64, y: f64) -> f64 {
+    if x < y {
+        x
+    } else {
+        y
+    }
+}
+
+/// Maximum of two finite numbers (no NaN handling).
+#[inline]
+fn max(x: f64, y: f64) -> f64 {
+    if x > y {
+        x
+    } else {
+        y
+    }
 }
 
 /// Closed box of a projected edge.
@@ -270,14 +367,6 @@ struct EdgeBox {
 }
 
 impl EdgeBox {
-    #[inline]
-    fn of(p: &[[f64; 2]; 2]) -> EdgeBox {
-        EdgeBox {
-            lo: [p[0][0].min(p[1][0]), p[0][1].min(p[1][1])],
-            hi: [p[0][0].max(p[1][0]), p[0][1].max(p[1][1])],
-        }
-    }
-
     /// The closed boxes share a point.
     #[inline]
     fn meets(&self, o: &EdgeBox) -> bool {
@@ -465,7 +554,7 @@ mod sweep_tests {
         let mut scratch = LoopScratch::default();
         let (mut clear, mut crossed) = (0, 0);
         for round in 0..400 {
-            let n = 5 + round % 90;
+            let n = 5 + round % 200;
             let noise = [0.0, 0.05, 0.3, 1.0][round % 4];
             let square = round % 3 == 0;
             let a = noisy_loop(&mut rng, n, noise, square, 0);
@@ -475,7 +564,7 @@ mod sweep_tests {
                 want,
                 "round {round}"
             );
-            let b = noisy_loop(&mut rng, 3 + round % 40, noise, !square, 1000);
+            let b = noisy_loop(&mut rng, 3 + round % 80, noise, !square, 1000);
             let want2 = all_pairs_reference(&a, Some(&b), 1e-12);
             assert_eq!(
                 all_pairs_clear(&a, Some(&b), 1e-12, &mut scratch),
