@@ -60,13 +60,21 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
         let scale = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
         // Strictly left, with a relative margin far above the rounding of the projection.
         // (NaN or infinite values never pass.)
-        if cross.partial_cmp(&(1e-9 * scale)) != Some(std::cmp::Ordering::Greater) {
+        if !(scale >= MIN_SCALE2)
+            || cross.partial_cmp(&(1e-9 * scale)) != Some(std::cmp::Ordering::Greater)
+        {
             return false;
         }
         crossings += (a[1] <= 0.0 && b[1] > 0.0) as u32;
     }
     crossings == 1
 }
+
+/// Smallest squared length the margins below are taken relative to. The
+/// margins (1e-9 and 1e-12 of a squared length) then stay above 1e-282, far
+/// above the absolute error underflow adds to a product (2^-1074): below it
+/// a loop is refused (no cull), never decided on underflowed arithmetic.
+const MIN_SCALE2: f64 = 1e-270;
 
 /// Bounding box of projected edges.
 fn seg_bounds(segs: &[Seg]) -> ([f64; 2], [f64; 2]) {
@@ -215,7 +223,9 @@ pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
         .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
         .sum();
     let ext2 = extent2(segs);
-    if area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater) {
+    if !(ext2 >= MIN_SCALE2)
+        || area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater)
+    {
         return false;
     }
     all_pairs_clear(segs, None, 1e-12 * ext2, scratch)
@@ -394,8 +404,8 @@ fn inside(p: [f64; 2], segs: &[Seg]) -> bool {
 /// Two simple counter-clockwise loops of adjacent patches: do they meet only
 /// along the mesh edges and vertices they share, with neither inside the other?
 pub fn loops_meet_only_where_shared(a: &[Seg], b: &[Seg], scratch: &mut LoopScratch) -> bool {
-    let eps = 1e-12 * extent2(a).max(extent2(b));
-    if !all_pairs_clear(a, Some(b), eps, scratch) {
+    let ext2 = extent2(a).max(extent2(b));
+    if !(ext2 >= MIN_SCALE2) || !all_pairs_clear(a, Some(b), 1e-12 * ext2, scratch) {
         return false;
     }
     let outside = |s: &[Seg], loop_: &[Seg]| {
