@@ -177,3 +177,15 @@ def test_bench_table_and_json(tmp_path: Path) -> None:
                if r["method"] not in selfcd.non_conservative_methods())
     assert "traverse ms" in out.stdout
     assert run("bench", "--states", "molten").returncode == 2
+
+
+def test_demo_keeps_particles_of_every_frame_when_their_count_changes() -> None:
+    """Particles are added as convex parts appear (a fold), so frames hold different counts."""
+    from selfcd import demo
+
+    v, f = selfcd.scenes.grid(21)
+    frames = np.stack([selfcd.scenes.deform(v, "fold", angle=3.5 * t) for t in np.linspace(0, 1, 20)])
+    particles = demo.sensor_particles(selfcd.Mesh(v, f), frames)
+    assert particles is not None and len(particles) == len(frames)
+    assert all(p.ndim == 2 and p.shape[1] == 3 for p in particles)
+    assert len({len(p) for p in particles}) > 1  # the case np.stack refused

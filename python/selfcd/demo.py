@@ -63,7 +63,8 @@ class SceneResult:
     proximity_faces: list[np.ndarray]
     proximity_counts: np.ndarray
     proximity_missed: dict[str, np.ndarray] = field(default_factory=dict)
-    particles: np.ndarray | None = None
+    #: Sensor particle positions of each frame, (k, 3); k follows the convex parts, so it may change.
+    particles: list[np.ndarray] | None = None
 
 
 ProgressFactory = Callable[[int, str], Any]
@@ -145,8 +146,10 @@ def proximity_reference(mesh: _api.Mesh, frames: np.ndarray, thickness: float) -
     return faces, np.asarray(counts, dtype=np.int64)
 
 
-def sensor_particles(mesh: _api.Mesh, frames: np.ndarray) -> np.ndarray | None:
-    """Sensor particle positions per frame, (f, k, 3), or None when the sensor cannot run here."""
+def sensor_particles(mesh: _api.Mesh, frames: np.ndarray) -> list[np.ndarray] | None:
+    """Sensor particle positions of each frame, (k, 3) arrays (k may change from frame to
+    frame: particles are added and merged as convex parts appear and vanish), or None
+    when the sensor cannot run here."""
     if "sensor-gated" not in _api.methods():
         return None
     try:
@@ -157,7 +160,7 @@ def sensor_particles(mesh: _api.Mesh, frames: np.ndarray) -> np.ndarray | None:
     for f in frames:
         det.detect(f)
         out.append(det.particles())
-    return np.stack(out)
+    return out
 
 
 def missed_proximity(result: SceneResult, run: dict[str, Any]) -> np.ndarray | None:
