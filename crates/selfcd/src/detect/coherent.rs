@@ -102,22 +102,32 @@ impl Candidates {
         (a > 0.0).then_some(a)
     }
 
-    /// The candidates of spread below `allowance` that may be within `reach`:
-    /// distance at the reference at most `reach` plus their spread (with slack).
+    /// Distance at the reference beyond which a candidate of spread `s`
+    /// cannot be within `reach` (with slack); monotone in `s`.
+    fn limit(&self, motion: &Motion, reach: f64, s: f64) -> f64 {
+        let bound = reach + s;
+        bound + SLACK.1 * bound + SLACK.0 * motion.magnitude.max(self.magnitude)
+    }
+
+    /// The candidates of spread below `allowance` that may be within `reach`
+    /// (distance at the reference at most [`limit`](Self::limit)), as a test
+    /// of candidate k, and the length of the distance-sorted prefix it needs
+    /// to run on (no pair spreads more than the whole mesh).
     fn covered<'a>(
         &'a self,
         motion: &'a Motion,
         mesh: &'a Mesh,
         reach: f64,
         allowance: f64,
-    ) -> impl Fn(usize) -> Option<ElementPair> + Sync + 'a {
-        move |k| {
+    ) -> (usize, impl Fn(usize) -> Option<ElementPair> + Sync + 'a) {
+        let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
+        let prefix = self.distance.partition_point(|&d| d <= widest);
+        let test = move |k: usize| {
             let p = self.pairs[k];
             let s = motion.pair_spread(mesh, p)?;
-            let bound = reach + s;
-            let limit = bound + SLACK.1 * bound + SLACK.0 * motion.magnitude.max(self.magnitude);
-            (s < allowance && self.distance[k] <= limit).then_some(p)
-        }
+            (s < allowance && self.distance[k] <= self.limit(motion, reach, s)).then_some(p)
+        };
+        (prefix, test)
     }
 }
 
@@ -144,6 +154,8 @@ struct Motion {
     vertex: Vec<DVec3>,
     /// Box of end `k` of node `n` at `k * n_nodes + n`.
     node: Vec<Aabb>,
+    /// Box of end `k` over all vertices.
+    whole: Vec<Aabb>,
     /// Largest coordinate magnitude of the query's positions.
     magnitude: f64,
 }
@@ -151,11 +163,18 @@ struct Motion {
 impl Motion {
     /// Fits the displacements of `ends` (one or two position arrays) from
     /// `reference`, and their node boxes.
-    fn fit(&mut self, bvh: &Bvh, mesh: &Mesh, reference: &[DVec3], ends: &[&[DVec3]]) {
+    fn fit(
+        &mut self,
+        bvh: &Bvh,
+        mesh: &Mesh,
+        reference: &[DVec3],
+        ends: &[&[DVec3]],
+        allowance: f64,
+    ) {
         let (nv, nn, leaves) = (reference.len(), bvh.n_nodes(), bvh.n_leaves);
         self.ends = ends.len();
         self.vertex.resize(nv * ends.len(), DVec3::ZERO);
-        self.node.resize(nn * ends.len(), Aabb::EMPTY);
+        self.whole.clear();
         for (k, x) in ends.iter().enumerate() {
             let e = &mut self.vertex[k * nv..(k + 1) * nv];
             let sub = |(i, d): (usize, &mut DVec3)| *d = x[i] - reference[i];
@@ -164,6 +183,18 @@ impl Motion {
             } else {
                 e.iter_mut().enumerate().for_each(sub);
             }
+            self.whole.push(Aabb::from_points(e));
+        }
+        self.magnitude = ends
+            .iter()
+            .flat_map(|x| x.iter())
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        if self.whole_spread() < allowance {
+            return; // every pair is covered: no traversal, no node boxes
+        }
+        self.node.resize(nn * ends.len(), Aabb::EMPTY);
+        for k in 0..ends.len() {
             let e = &self.vertex[k * nv..(k + 1) * nv];
             let (low, high) = self.node[k * nn..(k + 1) * nn].split_at_mut(leaves);
             let leaf = |(t, b): (usize, &mut Aabb)| {
@@ -181,11 +212,11 @@ impl Motion {
                 high[j] = child(l).union(&child(r));
             }
         }
-        self.magnitude = ends
-            .iter()
-            .flat_map(|x| x.iter())
-            .map(|p| p.abs().max_element())
-            .fold(0.0, f64::max);
+    }
+
+    /// The spread of all vertices: at least any pair's or node's.
+    fn whole_spread(&self) -> f64 {
+        self.whole.iter().map(|b| spread(b, b)).fold(0.0, f64::max)
     }
 
     /// The spread of nodes `a` and `b` (the same node for a self-test): the
@@ -449,9 +480,16 @@ impl SelfQueries {
         };
         let t0 = Instant::now();
         let c = &self.candidates;
-        self.motion.fit(&self.bvh, &self.mesh, &c.reference, ends);
+        self.motion
+            .fit(&self.bvh, &self.mesh, &c.reference, ends, allowance);
         s.refit_time += t0.elapsed().as_secs_f64();
         Ok(allowance)
+    }
+
+    /// True when the whole mesh spreads less than `allowance`: part (b) is
+    /// empty, and neither the hierarchy nor the node displacements need fitting.
+    fn all_covered(&self, allowance: f64) -> bool {
+        self.motion.whole_spread() < allowance
     }
 
     /// Part (b) of a query (module doc): the traversal of the hierarchy as
@@ -465,6 +503,9 @@ impl SelfQueries {
         test: impl Fn(ElementPair) -> Option<T> + Sync,
         s: &mut FrameStats,
     ) -> Vec<T> {
+        if self.all_covered(allowance) {
+            return Vec::new();
+        }
         let mesh = &*self.mesh;
         let cull = MotionCull {
             motion: &self.motion,
@@ -503,7 +544,9 @@ impl SelfQueries {
             )));
         }
         let allowance = self.prepare(&[x], thickness, s)?;
-        self.fit_static(x, s);
+        if !self.all_covered(allowance) {
+            self.fit_static(x, s);
+        }
         let t0 = Instant::now();
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
@@ -514,9 +557,9 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let covered = c.covered(&self.motion, &mesh, thickness, allowance);
+        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
         let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
-        found.extend(filter_map_ordered(c.pairs.len(), |k| {
+        found.extend(filter_map_ordered(prefix, |k| {
             let p = covered(k)?;
             // The fresh query's box test, so that the answers are the same to the bit.
             let [a, b] = p.visiting_triangles(&mesh);
@@ -525,7 +568,7 @@ impl SelfQueries {
             }
             test(p)
         }));
-        s.candidates += c.pairs.len() as u64;
+        s.candidates += prefix as u64;
         if found.len() > self.max_contacts {
             return Err(Error::TooManyContacts {
                 limit: self.max_contacts,
@@ -555,8 +598,10 @@ impl SelfQueries {
         check_args(&mesh, x0, x1, thickness)?;
         let allowance = self.prepare(&[x0, x1], thickness, s)?;
         let t0 = Instant::now();
-        self.bvh.refit_swept(&mesh, x0, x1);
-        self.fit.fitted = false;
+        if !self.all_covered(allowance) {
+            self.bvh.refit_swept(&mesh, x0, x1);
+            self.fit.fitted = false;
+        }
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
         let test = |p: ElementPair| {
@@ -564,11 +609,11 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let covered = c.covered(&self.motion, &mesh, thickness, allowance);
-        found.extend(filter_map_ordered(c.pairs.len(), |k| {
+        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        found.extend(filter_map_ordered(prefix, |k| {
             candidate_toi(&mesh, x0, x1, covered(k)?, thickness)
         }));
-        s.candidates += c.pairs.len() as u64;
+        s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();
         Ok(Impacts::from_items(found))
     }
