@@ -91,8 +91,8 @@ const CONTINUOUS_ROUNDS: u32 = 4;
 /// Skin of the self candidate set, in mean rest edge lengths: a pair's
 /// candidacy stays valid while the displacements of its vertices differ by
 /// less than this (see [`SelfQueries`]). Measured on the centre scene at
-/// 3,200 triangles over 60 steps (instructions): 0.25 best; 0.15 +4%,
-/// 0.2 and 0.3 +5%, 0.4 +14%.
+/// 3,200 triangles over 60 steps (instructions, against 0.25 at the same
+/// rebuild share): 0.15 +0.6%, 0.2 +5%, 0.3 +4%, 0.4 +14%.
 const SKIN: f64 = 0.25;
 /// Most correction rounds per step.
 const CORRECTION_ROUNDS: u32 = 64;
