@@ -54,7 +54,7 @@ fn run() -> Result<(), String> {
     let (mut iters, mut contacts, mut in_zones, mut rounds, mut worst) =
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
-    let (mut builds, mut reuses, mut swept) = (0u64, 0u64, 0u64);
+    let (mut builds, mut reuses, mut node_pairs, mut leaf_tests) = (0u64, 0u64, 0u64, 0u64);
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
         step += st.step_time;
@@ -68,7 +68,8 @@ fn run() -> Result<(), String> {
         intersections += st.intersections;
         builds += st.detection.candidate_builds;
         reuses += st.detection.candidate_reuses;
-        swept += st.detection.swept_queries;
+        node_pairs += st.detection.node_pairs;
+        leaf_tests += st.detection.proximity_tests;
         worst = worst.max(st.step_time);
         if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
             let e = sim.energy();
@@ -100,7 +101,9 @@ fn run() -> Result<(), String> {
         rounds as f64 / s
     );
     println!(
-        "candidate sets built {builds}, queries answered from a cached set {reuses}, swept continuous queries {swept}"
+        "candidate sets built {builds}, queries answered from a cached set {reuses}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
+        node_pairs as f64 / s,
+        leaf_tests as f64 / s
     );
     Ok(())
 }

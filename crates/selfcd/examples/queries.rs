@@ -136,8 +136,8 @@ fn main() {
             (i.vertex_triangle.len() + i.edge_edge.len(), s)
         });
         println!(
-            "continuous coherent, {name:9}   {ms:9.3} ms  {n} pairs (reused {}, swept {})",
-            s.candidate_reuses, s.swept_queries
+            "continuous coherent, {name:9}   {ms:9.3} ms  {n} pairs (reused {}, built {})",
+            s.candidate_reuses, s.candidate_builds
         );
     }
 }

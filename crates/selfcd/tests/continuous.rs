@@ -178,7 +178,9 @@ fn bad_inputs_are_errors() {
 
 /// Coherent queries (one hierarchy, candidate set reused across frames) give
 /// exactly what fresh queries give, frame after frame of a simulated
-/// sequence that folds onto itself, through both the reuse and the rebuild paths.
+/// sequence that folds onto itself: through the rebuild path, the reuse path
+/// with most pairs covered (default skin) and with most pairs left to the
+/// motion-culled traversal (a skin of a hundredth of an edge).
 #[test]
 fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
     use selfcd::cloth::PaperScene;
@@ -193,51 +195,60 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
     let e = mesh.mean_edge_length();
     let reach = sim.options().contact.detection_distance();
     let mut coherent = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
-    // Never widens its skin: the swept fallback.
-    let mut narrow = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
-    narrow.set_max_skin(0.25 * e);
+    let mut thin = SelfQueries::new(mesh.clone(), 0.01 * e).unwrap();
     let mut fresh = BvhDetector::new(mesh.clone(), Method::Bvh, reach);
-    let mut stats = FrameStats::default();
+    let (mut stats, mut thin_stats) = (FrameStats::default(), FrameStats::default());
     let (mut contacts, mut impacts) = (0, 0);
     let mut x0 = sim.positions().to_vec();
     for frame in 0..240 {
         sim.step().unwrap();
         let x1 = sim.positions().to_vec();
+        let want = fresh.detect(&x0).unwrap().proximity;
         let near = coherent.proximity(&x0, reach, &mut stats).unwrap();
-        assert_eq!(near, fresh.detect(&x0).unwrap().proximity, "frame {frame}");
+        assert_eq!(near, want, "frame {frame}");
+        let near = thin.proximity(&x0, reach, &mut thin_stats).unwrap();
+        assert_eq!(near, want, "frame {frame}, thin skin");
         contacts += near.vertex_triangle.len() + near.edge_edge.len();
-        for separation in [0.05 * e, reach] {
+        for separation in [0.05 * e, reach, 1.5 * reach] {
+            let want = fresh.continuous(&x0, &x1, separation).unwrap();
             let got = coherent
                 .continuous(&x0, &x1, separation, &mut stats)
                 .unwrap();
-            let want = fresh.continuous(&x0, &x1, separation).unwrap();
             assert_eq!(got, want, "frame {frame}, separation {separation}");
-            let swept = narrow.continuous(&x0, &x1, separation, &mut stats).unwrap();
-            assert_eq!(swept, want, "frame {frame}, separation {separation}");
+            let got = thin
+                .continuous(&x0, &x1, separation, &mut thin_stats)
+                .unwrap();
+            assert_eq!(
+                got, want,
+                "frame {frame}, separation {separation}, thin skin"
+            );
             impacts += got.vertex_triangle.len() + got.edge_edge.len();
         }
         let pairs = coherent.intersections(&x1, true, &mut stats).unwrap();
         assert_eq!(pairs, fresh.detect(&x1).unwrap().pairs, "frame {frame}");
         x0 = x1;
     }
-    eprintln!(
-        "coherent: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} swept",
-        stats.candidate_builds, stats.candidate_reuses, stats.swept_queries
-    );
+    for (name, s) in [("default", &stats), ("thin", &thin_stats)] {
+        eprintln!(
+            "coherent, {name} skin: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} leaf tests",
+            s.candidate_builds, s.candidate_reuses, s.proximity_tests
+        );
+        assert!(s.candidate_builds > 1 && s.candidate_reuses > s.candidate_builds);
+    }
     assert!(
         contacts > 0 && impacts > 0,
         "nothing came near: nothing tested"
     );
-    assert!(stats.candidate_builds > 1 && stats.candidate_reuses > 0);
     assert!(
-        stats.swept_queries > 0,
-        "the swept fallback was never tested"
+        thin_stats.self_culls > 0 && thin_stats.pair_culls > 0,
+        "the motion cull never decided"
     );
 }
 
 /// A rigid translation keeps the candidate set (distances do not change), and
 /// the answers still equal a fresh query's at the translated positions; a
-/// motion wider than the skin rebuilds it.
+/// motion wider than the skin is answered by the motion-culled traversal and
+/// makes the next query rebuild the set.
 #[test]
 fn translation_reuses_the_candidate_set() {
     use selfcd::detect::coherent::SelfQueries;
@@ -265,6 +276,8 @@ fn translation_reuses_the_candidate_set() {
     let again = q.proximity(&moved, d, &mut s).unwrap();
     assert_eq!(again, fresh.detect(&moved).unwrap().proximity);
     assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 1));
+    // Folding further moves one half against the other: covered far from the
+    // hinge, traversed near it.
     let bent = Deformation::Fold {
         angle: 0.7 * PI,
         radius: 0.03,
@@ -272,5 +285,24 @@ fn translation_reuses_the_candidate_set() {
     .apply(m.rest());
     let other = q.proximity(&bent, d, &mut s).unwrap();
     assert_eq!(other, fresh.detect(&bent).unwrap().proximity);
-    assert_eq!(s.candidate_builds, 2);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 2));
+    // Every vertex jittered by about an edge from the translated state:
+    // nothing is covered, the traversal answers, and the next query rebuilds.
+    let mut q = SelfQueries::new(m.clone(), 0.25 * e).unwrap();
+    let mut s = FrameStats::default();
+    q.proximity(&x, d, &mut s).unwrap();
+    let jitter: Vec<DVec3> = x
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let a = i as f64 * 2.399;
+            *p + 0.4 * e * DVec3::new(a.cos(), a.sin(), (3.0 * a).cos())
+        })
+        .collect();
+    let shaken = q.proximity(&jitter, d, &mut s).unwrap();
+    assert_eq!(shaken, fresh.detect(&jitter).unwrap().proximity);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 1));
+    let again = q.proximity(&jitter, d, &mut s).unwrap();
+    assert_eq!(again, shaken);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (2, 1));
 }

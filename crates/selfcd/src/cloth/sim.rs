@@ -4,7 +4,8 @@
 //! (and times) the queries, all on one self-collision hierarchy
 //! ([`SelfQueries`]: static boxes for proximity and intersections, swept
 //! boxes for continuous queries, and a candidate set of element pairs reused
-//! across steps while the cloth moves less than its skin):
+//! across steps wherever the cloth's motion is coherent: elements whose
+//! vertices moved alike keep their candidates however far they travelled):
 //! 1. proximity at the current positions: self within `d + margin` and
 //!    cloth-obstacle (the obstacles at the start of the step);
 //! 2. assemble and solve the backward Euler system with the filter: pins fixed,
@@ -87,8 +88,11 @@ impl SimOptions {
 const CONTINUOUS_THICKNESS: f64 = 0.5;
 /// Most continuous queries per step.
 const CONTINUOUS_ROUNDS: u32 = 4;
-/// Skin of the self candidate set, in mean rest edge lengths: the set is
-/// reused while no vertex moved more than half of it (common translation aside).
+/// Skin of the self candidate set, in mean rest edge lengths: a pair's
+/// candidacy stays valid while the displacements of its vertices differ by
+/// less than this (see [`SelfQueries`]). Measured on the centre scene at
+/// 3,200 triangles over 60 steps (instructions, against 0.25 at the same
+/// rebuild share): 0.15 +0.6%, 0.2 +5%, 0.3 +4%, 0.4 +14%.
 const SKIN: f64 = 0.25;
 /// Most correction rounds per step.
 const CORRECTION_ROUNDS: u32 = 64;

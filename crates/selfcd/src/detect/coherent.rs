@@ -1,29 +1,42 @@
 //! Coherent self queries: one hierarchy per mesh serves the intersection,
 //! proximity and continuous queries of a sequence of frames, and a candidate
-//! set of element pairs is reused from frame to frame while nothing moved far
-//! enough to change the answers (a Verlet list).
+//! set of element pairs is reused from frame to frame where the mesh moved
+//! coherently enough not to change the answers (a Verlet list with a
+//! per-region validity test).
 //!
 //! **Candidate set.** At reference positions `r` it holds every owned element
 //! pair (vertex-triangle, edge-edge; see [`for_each_owned_pair`]) closer than
-//! `reach + skin`. Let positions `x` satisfy `|x_i - r_i - c| < skin / 2` for
-//! every vertex i and one common translation `c`. Each side of an element pair
-//! is a convex combination of its vertices, so (translation aside) it moved by
-//! less than `skin / 2`, and the pair's distance changed by less than `skin`:
-//! every pair closer than `reach` at `x` is a candidate. For a linear motion
-//! `x0 -> x1` the same holds at every time of the step when it holds at both
-//! ends (with `c` interpolated: the deviation is a convex combination of the
-//! ends'). The answers are then computed on the candidates with exactly the
-//! arithmetic (and box tests) of a fresh query, so they are equal to it, not
-//! approximations; `tests/continuous.rs` checks that on simulated sequences.
+//! `R = reach + skin`.
 //!
-//! A flat sheet that does not move costs one O(n) motion check per query.
+//! **Relative displacement.** Let `e_i = x_i - r_i`. A point of one element is
+//! `sum a_i x_i`, of the other `sum b_j x_j` (convex weights), so their
+//! difference is `sum a_i b_j (r_i - r_j) + sum a_i b_j (e_i - e_j)`: the
+//! pair's distance changed by at most its *spread* `max |e_i - e_j|` over
+//! vertices i of one side and j of the other. No common translation or
+//! rotation needs removing: a smooth motion has small spreads between nearby
+//! elements however far it carried them. For a linear motion `x0 -> x1`,
+//! `e_i(t) - e_j(t)` is a convex combination of the ends', so the larger of
+//! the two ends' spreads bounds it over the whole step.
+//!
+//! **Query.** For a query within `d`, a pair of spread `< R - d` that is within
+//! `d` was within `R` at `r`: it is a candidate. So the answer is (a) the
+//! candidates of spread `< R - d`, tested, plus (b) the pairs of spread
+//! `>= R - d`, found by the fresh query's traversal with one more cull: a node,
+//! or a pair of nodes, whose displacement boxes have spread `< R - d` holds no
+//! pair of kind (b) (the spread of boxes bounds the spread of every pair in
+//! them). Both parts run exactly the fresh query's arithmetic (box tests
+//! included) on disjoint sets whose union holds every pair the fresh query
+//! reports, so the answer equals it; `tests/continuous.rs` checks that on
+//! simulated sequences. A mesh that moved coherently culls the traversal near
+//! the root; the set is rebuilt when part (b) grew to a good share of a rebuild.
 
-use super::continuous::{candidate_toi, check_args, swept_query, Impacts};
+use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
     collect_proximity, for_each_owned_pair, ElementPair, Intersect, Proximity, ProximityContacts,
     DEFAULT_MAX_CONTACTS,
 };
-use crate::bvh::traverse::{self_traverse, LeafVisitor, TraverseOptions};
+use crate::bvh::certify::Cull;
+use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::{Error, Result};
 use crate::geom::Aabb;
@@ -59,60 +72,240 @@ struct Candidates {
     distance: Vec<f64>,
     /// Largest coordinate magnitude at `reference` (for the rounding slack).
     magnitude: f64,
+    /// Leaf pairs the build tested: what a rebuild costs.
+    build_tests: u64,
 }
 
 /// Relative slack on the distance bounds below: covers rounding (1e-9 of the
-/// coordinates) and the time-of-impact resolution (1e-6 of the distances).
-const SLACK: (f64, f64) = (1e-9, 1e-5);
+/// coordinates) and the time-of-impact resolution (1e-6 of the distances,
+/// taken 1000 times wider: a pair grazing the bound must not stall the
+/// continuous iteration into its cap).
+const SLACK: (f64, f64) = (1e-9, 1e-3);
+
+/// A reuse query whose fresh part (b) tested more leaf pairs than this
+/// fraction of the last build's marks the set stale: the next query rebuilds.
+/// Measured on the centre scene (instructions, 60 steps at 3,200 triangles /
+/// 20 at 20k): 0.25 gave 10.60G / 19.90G, 0.5 10.98G / 19.75G, 0.125
+/// 10.76G at 3,200, 1.0 14.39G at 3,200.
+const STALE_SHARE: f64 = 0.25;
 
 impl Candidates {
-    /// The deviation of `x` from the reference (see [`deviation`]) when every
-    /// pair within `reach` at `x` is a candidate, `None` otherwise.
-    fn cover(&self, x: &[DVec3], reach: f64) -> Option<f64> {
-        if reach > self.reach || self.reference.len() != x.len() {
+    /// The spread below which every pair within `reach` at positions of
+    /// coordinate magnitude `magnitude` is a candidate (module doc), or `None`
+    /// when there is no set or `reach` is beyond it.
+    fn allowance(&self, reach: f64, magnitude: f64) -> Option<f64> {
+        if self.reference.is_empty() {
             return None;
         }
-        let dev = deviation(&self.reference, x);
-        (dev < 0.5 * self.skin).then_some(dev)
+        let a = (self.reach + self.skin - reach) * (1.0 - SLACK.1)
+            - SLACK.0 * self.magnitude.max(magnitude);
+        (a > 0.0).then_some(a)
     }
 
-    /// The candidates that may be within `reach` at positions deviating by at
-    /// most `dev` from the reference: a pair's distance changed by at most
-    /// `2 dev`, so only a prefix of the distance-sorted list can qualify.
-    fn within(&self, reach: f64, dev: f64) -> &[ElementPair] {
-        let bound = reach + 2.0 * dev;
-        let limit = bound + SLACK.1 * bound + SLACK.0 * self.magnitude;
-        &self.pairs[..self.distance.partition_point(|&d| d <= limit)]
+    /// Distance at the reference beyond which a candidate of spread `s`
+    /// cannot be within `reach` (with slack); monotone in `s`.
+    fn limit(&self, motion: &Motion, reach: f64, s: f64) -> f64 {
+        let bound = reach + s;
+        bound + SLACK.1 * bound + SLACK.0 * motion.magnitude.max(self.magnitude)
+    }
+
+    /// The candidates of spread below `allowance` that may be within `reach`
+    /// (distance at the reference at most [`limit`](Self::limit)), as a test
+    /// of candidate k, and the length of the distance-sorted prefix it needs
+    /// to run on (no pair spreads more than the whole mesh).
+    fn covered<'a>(
+        &'a self,
+        motion: &'a Motion,
+        mesh: &'a Mesh,
+        reach: f64,
+        allowance: f64,
+    ) -> (usize, impl Fn(usize) -> Option<ElementPair> + Sync + 'a) {
+        let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
+        let prefix = self.distance.partition_point(|&d| d <= widest);
+        let test = move |k: usize| {
+            let p = self.pairs[k];
+            let s = motion.pair_spread(mesh, p)?;
+            (s < allowance && self.distance[k] <= self.limit(motion, reach, s)).then_some(p)
+        };
+        (prefix, test)
     }
 }
 
-/// `max_i |x_i - r_i - c|` with `c` the centre of the displacements' box:
-/// the motion left once a common translation is taken out.
-fn deviation(r: &[DVec3], x: &[DVec3]) -> f64 {
-    let d = |i: usize| x[i] - r[i];
-    let (lo, hi) = if x.len() >= PAR_MIN {
-        (0..x.len()).into_par_iter().map(|i| (d(i), d(i))).reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        )
-    } else {
-        (0..x.len()).fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, i| (a.0.min(d(i)), a.1.max(d(i))),
-        )
-    };
-    let c = (lo + hi) * 0.5;
-    let max2 = if x.len() >= PAR_MIN {
-        (0..x.len())
-            .into_par_iter()
-            .map(|i| (d(i) - c).length_squared())
-            .reduce(|| 0.0, f64::max)
-    } else {
-        (0..x.len())
-            .map(|i| (d(i) - c).length_squared())
+/// Largest `|u - w|` over `u` in box `a` and `w` in box `b`, bounded through
+/// its per-axis maxima `max(a.max - b.min, b.max - a.min)` (both cannot be
+/// negative). Monotone: growing either box never lowers it, also in floating
+/// point.
+#[inline]
+fn spread(a: &Aabb, b: &Aabb) -> f64 {
+    (a.max - b.min).max(b.max - a.min).max(DVec3::ZERO).length()
+}
+
+/// Displacements since the reference at each end of the query (one, or two
+/// for a motion) and, per node and end, their box over the node's vertices.
+/// Spreads are taken at each end separately and the larger kept: the
+/// displacement difference of two vertices at any time of a linear motion is
+/// a convex combination of the ends' (a box over both ends would hold the
+/// whole step's motion).
+#[derive(Debug, Clone, Default)]
+struct Motion {
+    /// Ends in use (1 or 2).
+    ends: usize,
+    /// `e_k[i]` at `k * n_vertices + i`.
+    vertex: Vec<DVec3>,
+    /// Box of end `k` of node `n` at `k * n_nodes + n`.
+    node: Vec<Aabb>,
+    /// Box of end `k` over all vertices.
+    whole: Vec<Aabb>,
+    /// Largest coordinate magnitude of the query's positions.
+    magnitude: f64,
+}
+
+impl Motion {
+    /// Fits the displacements of `ends` (one or two position arrays) from
+    /// `reference`, and their node boxes.
+    fn fit(
+        &mut self,
+        bvh: &Bvh,
+        mesh: &Mesh,
+        reference: &[DVec3],
+        ends: &[&[DVec3]],
+        allowance: f64,
+    ) {
+        let (nv, nn, leaves) = (reference.len(), bvh.n_nodes(), bvh.n_leaves);
+        self.ends = ends.len();
+        self.vertex.resize(nv * ends.len(), DVec3::ZERO);
+        self.whole.clear();
+        for (k, x) in ends.iter().enumerate() {
+            let e = &mut self.vertex[k * nv..(k + 1) * nv];
+            let sub = |(i, d): (usize, &mut DVec3)| *d = x[i] - reference[i];
+            if nv >= PAR_MIN {
+                e.par_iter_mut().enumerate().for_each(sub);
+            } else {
+                e.iter_mut().enumerate().for_each(sub);
+            }
+            self.whole.push(Aabb::from_points(e));
+        }
+        self.magnitude = ends
+            .iter()
+            .flat_map(|x| x.iter())
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        if self.whole_spread() < allowance {
+            return; // every pair is covered: no traversal, no node boxes
+        }
+        self.node.resize(nn * ends.len(), Aabb::EMPTY);
+        for k in 0..ends.len() {
+            let e = &self.vertex[k * nv..(k + 1) * nv];
+            let (low, high) = self.node[k * nn..(k + 1) * nn].split_at_mut(leaves);
+            let leaf = |(t, b): (usize, &mut Aabb)| {
+                *b = Aabb::from_points(&mesh.triangles()[t].map(|i| e[i as usize]))
+            };
+            if leaves >= PAR_MIN {
+                low.par_iter_mut().enumerate().for_each(leaf);
+            } else {
+                low.iter_mut().enumerate().for_each(leaf);
+            }
+            // Children have smaller ids than their parent (build order).
+            for j in 0..high.len() {
+                let [l, r] = bvh.children[j].map(|c| c as usize);
+                let child = |c: usize| if c < leaves { low[c] } else { high[c - leaves] };
+                high[j] = child(l).union(&child(r));
+            }
+        }
+    }
+
+    /// The spread of all vertices: at least any pair's or node's.
+    fn whole_spread(&self) -> f64 {
+        self.whole.iter().map(|b| spread(b, b)).fold(0.0, f64::max)
+    }
+
+    /// The spread of nodes `a` and `b` (the same node for a self-test): the
+    /// larger of the ends'.
+    #[inline]
+    fn node_spread(&self, a: u32, b: u32) -> f64 {
+        let nn = self.node.len() / self.ends.max(1);
+        (0..self.ends)
+            .map(|k| {
+                spread(
+                    &self.node[k * nn + a as usize],
+                    &self.node[k * nn + b as usize],
+                )
+            })
             .fold(0.0, f64::max)
-    };
-    max2.sqrt()
+    }
+
+    /// The spread of an element pair's two sides (module doc); `None` for
+    /// incident pairs (never reported).
+    #[inline]
+    fn pair_spread(&self, mesh: &Mesh, p: ElementPair) -> Option<f64> {
+        let (kind, ids) = p.stencil(mesh)?;
+        let nv = self.vertex.len() / self.ends.max(1);
+        let (a, b) = ids.split_at(kind.split());
+        let side = |s: &[u32], k: usize| {
+            s.iter().fold(Aabb::EMPTY, |bx, &i| {
+                let e = self.vertex[k * nv + i as usize];
+                bx.union(&Aabb { min: e, max: e })
+            })
+        };
+        Some(
+            (0..self.ends)
+                .map(|k| spread(&side(a, k), &side(b, k)))
+                .fold(0.0, f64::max),
+        )
+    }
+}
+
+/// The traversal cull of part (b): a node or node pair whose displacement
+/// boxes spread less than `allowance` holds only covered pairs.
+struct MotionCull<'a> {
+    motion: &'a Motion,
+    allowance: f64,
+}
+
+impl Cull for MotionCull<'_> {
+    type Scratch = ();
+    #[inline]
+    fn self_culled(&self, n: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = self.motion.node_spread(n, n) < self.allowance;
+        c.self_culls += culled as u64;
+        culled
+    }
+    #[inline]
+    fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = self.motion.node_spread(a, b) < self.allowance;
+        c.pair_culls += culled as u64;
+        culled
+    }
+}
+
+/// Narrow phase of part (b): the fresh query's `test` on the owned element
+/// pairs of a leaf pair that are not covered.
+struct Uncovered<'a, F> {
+    mesh: &'a Mesh,
+    motion: &'a Motion,
+    allowance: f64,
+    test: F,
+}
+
+impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<'_, F> {
+    type Item = T;
+    const SKIP_ADJACENT: bool = false;
+
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<T>) {
+        if self.motion.node_spread(a, b) < self.allowance {
+            return; // every pair of the two triangles is covered
+        }
+        for_each_owned_pair(self.mesh, a, b, |p| {
+            let p = p.canonical();
+            let covered = self
+                .motion
+                .pair_spread(self.mesh, p)
+                .is_none_or(|s| s < self.allowance);
+            if !covered {
+                out.extend((self.test)(p));
+            }
+        });
+    }
 }
 
 /// Narrow phase of a candidate build: owned element pairs closer than `reach`.
@@ -145,15 +338,12 @@ impl LeafVisitor for Gather<'_> {
     }
 }
 
-/// Maps `f` over `items` in order, in parallel when there are many.
-fn filter_map_ordered<T: Sync, U: Send>(
-    items: &[T],
-    f: impl Fn(&T) -> Option<U> + Sync + Send,
-) -> Vec<U> {
-    if items.len() >= PAR_MIN {
-        items.par_iter().filter_map(f).collect()
+/// Maps `f` over `0..n` in order, in parallel when there are many.
+fn filter_map_ordered<U: Send>(n: usize, f: impl Fn(usize) -> Option<U> + Sync + Send) -> Vec<U> {
+    if n >= PAR_MIN {
+        (0..n).into_par_iter().filter_map(f).collect()
     } else {
-        items.iter().filter_map(f).collect()
+        (0..n).filter_map(f).collect()
     }
 }
 
@@ -164,19 +354,12 @@ pub struct SelfQueries {
     bvh: Bvh,
     fit: Fit,
     candidates: Candidates,
+    motion: Motion,
+    /// The last reuse query's fresh part cost a good share of a rebuild.
+    stale: bool,
     skin: f64,
-    max_skin: f64,
     max_contacts: usize,
 }
-
-/// A continuous query whose motion its candidate set does not cover rebuilds
-/// the set with a skin this much wider than the motion's deviation.
-const SKIN_OVER_MOTION: f64 = 2.2;
-/// Default largest skin, in units of the base skin; wider motions take the
-/// swept traversal. A sheet has in-plane neighbours within any skin, so wide
-/// skins cost more than they save (measured: 8 was slower than 1 or 2 on the
-/// falling centre scene).
-const MAX_SKIN: f64 = 2.0;
 
 impl SelfQueries {
     /// Builds the hierarchy of `mesh`; candidate sets are built with `skin`
@@ -193,8 +376,9 @@ impl SelfQueries {
             bvh,
             fit: Fit::default(),
             candidates: Candidates::default(),
+            motion: Motion::default(),
+            stale: false,
             skin,
-            max_skin: MAX_SKIN * skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
         })
     }
@@ -207,13 +391,6 @@ impl SelfQueries {
     /// The hierarchy.
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
-    }
-
-    /// Sets the widest skin a continuous query may rebuild its candidate set
-    /// with (default 2 times the base skin); motions that need more take the
-    /// swept traversal instead.
-    pub fn set_max_skin(&mut self, max_skin: f64) {
-        self.max_skin = max_skin;
     }
 
     /// Sets the limit on proximity contacts and candidates (default [`DEFAULT_MAX_CONTACTS`]).
@@ -234,11 +411,11 @@ impl SelfQueries {
         s.refit_time += t0.elapsed().as_secs_f64();
     }
 
-    /// Rebuilds the candidate set at `x` for pairs within `reach` with `skin`.
-    fn rebuild(&mut self, x: &[DVec3], reach: f64, skin: f64, s: &mut FrameStats) -> Result<()> {
+    /// Rebuilds the candidate set at `x` for pairs within `reach`, with the skin.
+    fn rebuild(&mut self, x: &[DVec3], reach: f64, s: &mut FrameStats) -> Result<()> {
         self.fit_static(x, s);
         let t0 = Instant::now();
-        let gap = reach + skin;
+        let gap = reach + self.skin;
         let mesh = &*self.mesh;
         let gather = Gather {
             mesh,
@@ -264,11 +441,13 @@ impl SelfQueries {
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,
-            skin,
+            skin: self.skin,
             distance: pairs.iter().map(|p| p.0).collect(),
             pairs: pairs.into_iter().map(|p| p.1).collect(),
             magnitude,
+            build_tests: c.primitive_tests,
         };
+        self.stale = false;
         s.candidate_builds += 1;
         s.node_pairs += c.node_pairs;
         s.proximity_tests += c.primitive_tests;
@@ -276,10 +455,82 @@ impl SelfQueries {
         Ok(())
     }
 
+    /// The allowance of the candidate set for a query within `reach` at
+    /// `ends`, after rebuilding the set at `ends[0]` when it is stale or does
+    /// not reach that far; fits the displacement boxes.
+    fn prepare(&mut self, ends: &[&[DVec3]], reach: f64, s: &mut FrameStats) -> Result<f64> {
+        let magnitude = |x: &[DVec3]| x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
+        let fresh = |c: &Candidates| {
+            ends.iter()
+                .map(|x| c.allowance(reach, magnitude(x)))
+                .try_fold(f64::INFINITY, |a, b| b.map(|b| a.min(b)))
+        };
+        let allowance = match fresh(&self.candidates).filter(|_| !self.stale) {
+            Some(a) => {
+                s.candidate_reuses += 1;
+                a
+            }
+            None => {
+                let reach = reach.max(self.candidates.reach);
+                self.rebuild(ends[0], reach, s)?;
+                fresh(&self.candidates).ok_or_else(|| {
+                    Error::InvalidParameter(format!("distance {reach} too large to query"))
+                })?
+            }
+        };
+        let t0 = Instant::now();
+        let c = &self.candidates;
+        self.motion
+            .fit(&self.bvh, &self.mesh, &c.reference, ends, allowance);
+        s.refit_time += t0.elapsed().as_secs_f64();
+        Ok(allowance)
+    }
+
+    /// True when the whole mesh spreads less than `allowance`: part (b) is
+    /// empty, and neither the hierarchy nor the node displacements need fitting.
+    fn all_covered(&self, allowance: f64) -> bool {
+        self.motion.whole_spread() < allowance
+    }
+
+    /// Part (b) of a query (module doc): the traversal of the hierarchy as
+    /// fitted now, boxes within `gap`, culled by motion, running `test` on
+    /// the pairs not covered. Marks the set stale when that cost a good share
+    /// of a rebuild.
+    fn uncovered<T: Send>(
+        &mut self,
+        gap: f64,
+        allowance: f64,
+        test: impl Fn(ElementPair) -> Option<T> + Sync,
+        s: &mut FrameStats,
+    ) -> Vec<T> {
+        if self.all_covered(allowance) {
+            return Vec::new();
+        }
+        let mesh = &*self.mesh;
+        let cull = MotionCull {
+            motion: &self.motion,
+            allowance,
+        };
+        let visitor = Uncovered {
+            mesh,
+            motion: &self.motion,
+            allowance,
+            test,
+        };
+        let (found, c) = traverse(&self.bvh, mesh, gap, &cull, &visitor);
+        s.node_pairs += c.node_pairs;
+        s.proximity_tests += c.primitive_tests;
+        s.self_culls += c.self_culls;
+        s.pair_culls += c.pair_culls;
+        self.stale |= c.primitive_tests as f64 > STALE_SHARE * self.candidates.build_tests as f64;
+        found
+    }
+
     /// Every vertex-triangle and edge-edge pair closer than `thickness` (> 0)
     /// at `x`: equal to [`BvhDetector`](super::hierarchy::BvhDetector)'s
-    /// proximity. Reuses the candidate set when it covers `x`, else rebuilds it
-    /// at `x`. Adds its work to `s`.
+    /// proximity. From the candidate set and the traversal of what it does not
+    /// cover (module doc); rebuilds the set at `x` when it is stale. Adds its
+    /// work to `s`.
     pub fn proximity(
         &mut self,
         x: &[DVec3],
@@ -292,32 +543,32 @@ impl SelfQueries {
                 "thickness must be positive and finite, got {thickness}"
             )));
         }
-        let dev = match self.candidates.cover(x, thickness) {
-            Some(dev) => {
-                s.candidate_reuses += 1;
-                dev
-            }
-            None => {
-                self.rebuild(x, thickness, self.skin, s)?;
-                0.0
-            }
-        };
+        let allowance = self.prepare(&[x], thickness, s)?;
+        if !self.all_covered(allowance) {
+            self.fit_static(x, s);
+        }
         let t0 = Instant::now();
-        let mesh = &*self.mesh;
-        let near = Proximity::new(mesh, x, thickness, self.max_contacts);
-        let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
-        let pairs = self.candidates.within(thickness, dev);
-        let found = filter_map_ordered(pairs, |&p| {
-            // The fresh query's box test, so that the answers are the same to the bit.
-            let [a, b] = p.visiting_triangles(mesh);
-            if a == b || !boxes(a).within(&boxes(b), thickness) {
-                return None;
-            }
+        let mesh = self.mesh.clone();
+        let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
+        let test = |p: ElementPair| {
             let mut out = Vec::new();
             near.test(p, &mut out);
             out.pop()
-        });
-        s.candidates += pairs.len() as u64;
+        };
+        let mut found = self.uncovered(thickness, allowance, test, s);
+        let c = &self.candidates;
+        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
+        found.extend(filter_map_ordered(prefix, |k| {
+            let p = covered(k)?;
+            // The fresh query's box test, so that the answers are the same to the bit.
+            let [a, b] = p.visiting_triangles(&mesh);
+            if a == b || !boxes(a).within(&boxes(b), thickness) {
+                return None;
+            }
+            test(p)
+        }));
+        s.candidates += prefix as u64;
         if found.len() > self.max_contacts {
             return Err(Error::TooManyContacts {
                 limit: self.max_contacts,
@@ -333,11 +584,9 @@ impl SelfQueries {
     /// Every element pair that may come within `thickness` (>= 0) while the
     /// mesh moves linearly from `x0` to `x1`: equal to
     /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
-    /// From the candidate set when it covers both ends; else, when the motion's
-    /// deviation (common translation aside) is narrow enough, from a candidate
-    /// set rebuilt at `x0` with a skin covering it (and the proximity reach
-    /// of the previous set, so the next proximity query may reuse it); else by
-    /// a swept traversal. Adds its work to `s`.
+    /// From the candidate set and the swept traversal of what it does not
+    /// cover (module doc); rebuilds the set at `x0` when it is stale or does
+    /// not reach `thickness`. Adds its work to `s`.
     pub fn continuous(
         &mut self,
         x0: &[DVec3],
@@ -347,36 +596,26 @@ impl SelfQueries {
     ) -> Result<Impacts> {
         let mesh = self.mesh.clone();
         check_args(&mesh, x0, x1, thickness)?;
-        let cover = |c: &Candidates, x| c.cover(x, thickness);
-        let mut ends = (cover(&self.candidates, x0), cover(&self.candidates, x1));
-        if ends.0.is_none() || ends.1.is_none() {
-            let dev = deviation(x0, x1);
-            let skin = self.skin.max(SKIN_OVER_MOTION * dev);
-            if skin <= self.max_skin {
-                let reach = thickness.max(self.candidates.reach);
-                self.rebuild(x0, reach, skin, s)?;
-                ends = (Some(0.0), Some(dev));
-            }
-        }
+        let allowance = self.prepare(&[x0, x1], thickness, s)?;
         let t0 = Instant::now();
-        if let (Some(d0), Some(d1)) = ends {
-            s.candidate_reuses += 1;
-            // The deviation at any time of the step is at most the ends' (module doc).
-            let pairs = self.candidates.within(thickness, d0.max(d1));
-            let found = filter_map_ordered(pairs, |&p| candidate_toi(&mesh, x0, x1, p, thickness));
-            s.candidates += pairs.len() as u64;
-            s.traverse_time += t0.elapsed().as_secs_f64();
-            return Ok(Impacts::from_items(found));
+        if !self.all_covered(allowance) {
+            self.bvh.refit_swept(&mesh, x0, x1);
+            self.fit.fitted = false;
         }
-        self.bvh.refit_swept(&mesh, x0, x1);
-        self.fit.fitted = false;
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let (found, c) = swept_query(&self.bvh, &mesh, x0, x1, thickness);
-        s.swept_queries += 1;
-        s.node_pairs += c.node_pairs;
+        let test = |p: ElementPair| {
+            element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
+        };
+        let mut found = self.uncovered(thickness, allowance, test, s);
+        let c = &self.candidates;
+        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        found.extend(filter_map_ordered(prefix, |k| {
+            candidate_toi(&mesh, x0, x1, covered(k)?, thickness)
+        }));
+        s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();
-        Ok(found)
+        Ok(Impacts::from_items(found))
     }
 
     /// Intersecting non-adjacent triangle pairs at `x`, sorted, with the
