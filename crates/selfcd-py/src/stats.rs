@@ -37,7 +37,6 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("candidate_builds", U(s.candidate_builds)),
         ("candidate_reuses", U(s.candidate_reuses)),
         ("candidates", U(s.candidates)),
-        ("swept_queries", U(s.swept_queries)),
         ("triggered", B(s.triggered)),
         ("relax_steps", U(s.relax_steps as u64)),
         ("moving_particles", U(s.moving_particles as u64)),

@@ -38,8 +38,6 @@ pub struct FrameStats {
     pub candidate_reuses: u64,
     /// Coherent queries: cached candidate element pairs re-tested.
     pub candidates: u64,
-    /// Coherent queries: continuous queries that needed a swept traversal.
-    pub swept_queries: u64,
     /// Sensor-gated only: did the sensor trigger the traversal this frame.
     pub triggered: Option<bool>,
     /// Sensor-gated only: particle updates made while relaxing.
