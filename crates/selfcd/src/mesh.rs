@@ -303,6 +303,31 @@ impl Mesh {
         ta.iter().any(|v| tb.contains(v))
     }
 
+    /// Component id of every triangle, numbered 0.. in order of each
+    /// component's first triangle. Triangles are connected when they share a
+    /// vertex: a surface path passes through a shared vertex, and triangles of
+    /// different components share none.
+    pub fn triangle_components(&self) -> Vec<u32> {
+        let mut parent: Vec<u32> = (0..self.n_vertices() as u32).collect();
+        for t in self.triangles() {
+            union_find::union(&mut parent, t[0], t[1]);
+            union_find::union(&mut parent, t[0], t[2]);
+        }
+        let mut label = vec![u32::MAX; parent.len()];
+        let mut next = 0;
+        self.triangles()
+            .iter()
+            .map(|t| {
+                let root = union_find::find(&mut parent, t[0]) as usize;
+                if label[root] == u32::MAX {
+                    label[root] = next;
+                    next += 1;
+                }
+                label[root]
+            })
+            .collect()
+    }
+
     /// Flags, per triangle, whether it touches a non-manifold edge (more than two
     /// triangles) or a non-manifold vertex (its triangles form several fans).
     pub fn nonmanifold_triangles(&self) -> Vec<bool> {
@@ -561,6 +586,25 @@ mod tests {
             assert_eq!(topo.edge_tris.items.len(), 3 * f.len());
             assert_eq!(topo.vertex_tris.items.len(), 3 * f.len());
         }
+    }
+
+    #[test]
+    fn two_quads_and_a_bow_tie() {
+        let v = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [5., 0., 0.],
+            [6., 0., 0.],
+            [5., 1., 0.],
+            [7., 1., 0.],
+            [7., 0., 0.],
+        ];
+        // Quad (0,1); lone triangle (2) and a triangle touching it at vertex 6 (3).
+        let f = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [6, 7, 8]];
+        let m = Mesh::new(v, f).unwrap();
+        assert_eq!(m.triangle_components(), vec![0, 0, 1, 1]);
     }
 
     #[test]

@@ -18,7 +18,6 @@ use super::patch::{merge_contours_with, pack, unpack, Patches, INELIGIBLE, SEVER
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
-use crate::sensor::components::triangle_components;
 use rayon::prelude::*;
 
 /// Builds the hierarchy of `mesh` on its rest shape, with boxes and cones fitted to it.
@@ -83,7 +82,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
 /// Component tag of every leaf (see [`Patches::component`]), from the mesh's
 /// vertex-connected components.
 fn leaf_component_tags(mesh: &Mesh) -> Vec<u8> {
-    triangle_components(mesh)
+    mesh.triangle_components()
         .into_iter()
         .map(|c| (c % SEVERAL as u32) as u8)
         .collect()
@@ -595,7 +594,7 @@ mod tests {
         for seed in 0..6 {
             let m = mesh(seed);
             let (topo, bad) = (m.topology(), m.nonmanifold_triangles());
-            let components = triangle_components(&m);
+            let components = m.triangle_components();
             let bvh = build(&m);
             let p = &bvh.patches;
             for n in 0..bvh.n_nodes() as u32 {

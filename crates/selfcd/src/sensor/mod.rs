@@ -4,7 +4,6 @@
 //! - [`particle`]: a particle is a surface point (triangle + barycentric).
 //! - [`tangent`]: tangent vectors of a triangle, in rest and current shape.
 //! - [`walk`]: moving a particle along the surface, across triangles.
-//! - [`components`]: connected components (no surface path between them).
 //! - [`geodesic`]: geodesic distance fields on the rest mesh (fast marching).
 //! - [`odl`]: original distance and path direction: chord on flat rest
 //!   shapes, geodesic fields on curved ones, infinite between components.
@@ -22,7 +21,6 @@
 // Guards are written `!(x > limit)` on purpose: they are true for NaN too.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod components;
 pub mod forces;
 pub mod geodesic;
 pub mod odl;

@@ -28,7 +28,6 @@
 //! change with it. Directions are rest-space vectors; [`super::tangent::TriMap`] carries them
 //! to the current shape (projecting onto the triangle's plane on the way).
 
-use super::components::triangle_components;
 use super::geodesic::Marcher;
 use super::particle::SurfacePoint;
 use super::tangent;
@@ -139,7 +138,7 @@ pub struct OriginalDistance {
 impl OriginalDistance {
     /// The original distance on `mesh` (components and flatness computed here).
     pub fn new(mesh: Arc<Mesh>) -> OriginalDistance {
-        let component = Arc::new(triangle_components(&mesh));
+        let component = Arc::new(mesh.triangle_components());
         let flat = flatness_deviation(&mesh) <= FLAT_TOLERANCE;
         let unit = mesh.mean_edge_length();
         let lo = mesh.rest().iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
