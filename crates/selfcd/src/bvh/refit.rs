@@ -50,26 +50,60 @@ impl Bvh {
                 .enumerate()
                 .for_each(|(t, (b, c))| (*b, *c) = leaf(t));
         }
+        let mut boxes = std::mem::take(&mut self.boxes);
+        let mut cones = std::mem::take(&mut self.cones);
+        self.merge_up(&mut boxes, Aabb::union);
+        self.merge_up(&mut cones, NormalCone::merge);
+        (self.boxes, self.cones) = (boxes, cones);
+    }
+
+    /// Fills `values` (one per node) bottom-up: `leaf(t)` for leaf `t`, the
+    /// `merge` of the children for every internal node; parallel within a
+    /// build level. For per-node bounds of other per-vertex data (the
+    /// displacement boxes of the coherent queries).
+    pub fn fit_nodes<T: Copy + Send + Sync>(
+        &self,
+        values: &mut [T],
+        leaf: impl Fn(usize) -> T + Sync,
+        merge: impl Fn(&T, &T) -> T + Sync,
+    ) {
+        let leaves = &mut values[..self.n_leaves];
+        if leaves.len() >= PAR_MIN {
+            leaves
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(t, v)| *v = leaf(t));
+        } else {
+            leaves
+                .iter_mut()
+                .enumerate()
+                .for_each(|(t, v)| *v = leaf(t));
+        }
+        self.merge_up(values, merge);
+    }
+
+    /// Sets every internal node of `values` to the `merge` of its children,
+    /// level by level (leaves already set).
+    fn merge_up<T: Copy + Send + Sync>(
+        &self,
+        values: &mut [T],
+        merge: impl Fn(&T, &T) -> T + Sync,
+    ) {
+        let n = self.n_leaves;
         for level in &self.levels {
             let (lo, hi) = (level.start as usize, level.end as usize);
             // Children of this level all have ids below `lo`.
-            let (done_b, rest_b) = self.boxes.split_at_mut(lo);
-            let (done_c, rest_c) = self.cones.split_at_mut(lo);
+            let (done, rest) = values.split_at_mut(lo);
             let kids = &self.children[lo - n..hi - n];
-            let fit = |(i, (b, c)): (usize, (&mut Aabb, &mut NormalCone))| {
+            let fit = |(i, v): (usize, &mut T)| {
                 let [l, r] = kids[i];
-                let (l, r) = (l as usize, r as usize);
-                *b = done_b[l].union(&done_b[r]);
-                *c = done_c[l].merge(&done_c[r]);
+                *v = merge(&done[l as usize], &done[r as usize]);
             };
-            let (rb, rc) = (&mut rest_b[..hi - lo], &mut rest_c[..hi - lo]);
+            let out = &mut rest[..hi - lo];
             if hi - lo >= PAR_MIN {
-                rb.par_iter_mut()
-                    .zip(rc.par_iter_mut())
-                    .enumerate()
-                    .for_each(fit);
+                out.par_iter_mut().enumerate().for_each(fit);
             } else {
-                rb.iter_mut().zip(rc.iter_mut()).enumerate().for_each(fit);
+                out.iter_mut().enumerate().for_each(fit);
             }
         }
     }

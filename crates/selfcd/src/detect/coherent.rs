@@ -171,7 +171,7 @@ impl Motion {
         ends: &[&[DVec3]],
         allowance: f64,
     ) {
-        let (nv, nn, leaves) = (reference.len(), bvh.n_nodes(), bvh.n_leaves);
+        let (nv, nn) = (reference.len(), bvh.n_nodes());
         self.ends = ends.len();
         self.vertex.resize(nv * ends.len(), DVec3::ZERO);
         self.whole.clear();
@@ -196,21 +196,11 @@ impl Motion {
         self.node.resize(nn * ends.len(), Aabb::EMPTY);
         for k in 0..ends.len() {
             let e = &self.vertex[k * nv..(k + 1) * nv];
-            let (low, high) = self.node[k * nn..(k + 1) * nn].split_at_mut(leaves);
-            let leaf = |(t, b): (usize, &mut Aabb)| {
-                *b = Aabb::from_points(&mesh.triangles()[t].map(|i| e[i as usize]))
-            };
-            if leaves >= PAR_MIN {
-                low.par_iter_mut().enumerate().for_each(leaf);
-            } else {
-                low.iter_mut().enumerate().for_each(leaf);
-            }
-            // Children have smaller ids than their parent (build order).
-            for j in 0..high.len() {
-                let [l, r] = bvh.children[j].map(|c| c as usize);
-                let child = |c: usize| if c < leaves { low[c] } else { high[c - leaves] };
-                high[j] = child(l).union(&child(r));
-            }
+            bvh.fit_nodes(
+                &mut self.node[k * nn..(k + 1) * nn],
+                |t| Aabb::from_points(&mesh.triangles()[t].map(|i| e[i as usize])),
+                Aabb::union,
+            );
         }
     }
 
