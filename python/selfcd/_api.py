@@ -221,6 +221,60 @@ class Detector:
         return f"selfcd.Detector(method={self.method!r}, thickness={self.thickness})"
 
 
+
+class SelfQueries:
+    """The intersection, proximity and continuous queries of one mesh over a sequence of
+    frames, as the cloth simulator runs them: one hierarchy, and a candidate set of
+    element pairs kept from call to call where the mesh moved coherently enough.
+
+    Each answer equals a fresh query's (`Detector` with a thickness for proximity,
+    `continuous_impacts` for continuous, `self_intersections` for intersections); only
+    the work differs, and `last_stats` counts it ("candidates": answered from the set).
+
+    Args:
+        mesh: the mesh.
+        skin: how far beyond the asked distance the candidate set reaches (> 0;
+            default a quarter of the mean edge length). A larger skin keeps the set
+            valid through more motion but tests more candidates per call.
+    """
+
+    def __init__(self, mesh: Mesh, skin: float | None = None) -> None:
+        if not isinstance(mesh, Mesh):
+            raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+        self.mesh = mesh
+        self._inner = _core.SelfQueries(mesh._inner, None if skin is None else _arrays.number(skin, "skin"))
+
+    @property
+    def skin(self) -> float:
+        """The candidate sets' reach beyond the asked distance."""
+        return self._inner.skin
+
+    @property
+    def last_stats(self) -> dict[str, Any]:
+        """FrameStats of the last call (times in seconds, counters); zeros before the first."""
+        return self._inner.last_stats
+
+    def intersections(self, positions: npt.ArrayLike, cones: bool = True) -> np.ndarray:
+        """Intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted; exact.
+
+        `cones=False` culls by boxes only (same answer, more work)."""
+        return self._inner.intersections(self.mesh._positions(positions), bool(cones))
+
+    def proximity(self, positions: npt.ArrayLike, thickness: float) -> dict[str, np.ndarray]:
+        """Vertex-triangle and edge-edge pairs closer than `thickness` (> 0), keyed as
+        `Detector.last_proximity`."""
+        return self._inner.proximity(self.mesh._positions(positions), _arrays.number(thickness, "thickness"))
+
+    def continuous(self, x0: npt.ArrayLike, x1: npt.ArrayLike, thickness: float = 0.0) -> dict[str, np.ndarray]:
+        """Element pairs that come within `thickness` (>= 0) during the linear step x0 -> x1,
+        with times of impact; keyed as `continuous_impacts`."""
+        return self._inner.continuous(self.mesh._positions(x0, "x0"), self.mesh._positions(x1, "x1"),
+                                      _arrays.number(thickness, "thickness"))
+
+    def __repr__(self) -> str:
+        return f"selfcd.SelfQueries(n_faces={self.mesh.n_faces}, skin={self.skin:.4g})"
+
+
 def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
                        subset: npt.ArrayLike | None = None, weld: bool = False) -> np.ndarray:
     """Exact one-shot query: intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted.

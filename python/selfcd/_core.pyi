@@ -69,6 +69,25 @@ class Detector:
     def last_proximity(self) -> dict[str, np.ndarray] | None:
         """Proximity contacts of the last call, or None."""
 
+@final
+class SelfQueries:
+    """Coherent intersection, proximity and continuous queries of one mesh over a frame sequence."""
+
+    def __new__(cls, mesh: Mesh, skin: float | None = None) -> SelfQueries:
+        """Builds the hierarchy; candidate sets reach `skin` beyond the asked distance."""
+    def intersections(self, positions: np.ndarray, cones: bool = True) -> np.ndarray:
+        """Intersecting non-adjacent face pairs, (k,2) int64, sorted, i<j."""
+    def proximity(self, positions: np.ndarray, thickness: float) -> dict[str, np.ndarray]:
+        """Vertex-triangle and edge-edge pairs closer than `thickness`."""
+    def continuous(self, x0: np.ndarray, x1: np.ndarray, thickness: float) -> dict[str, np.ndarray]:
+        """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
+    @property
+    def skin(self) -> float:
+        """The candidate sets' reach beyond the asked distance."""
+    @property
+    def last_stats(self) -> dict[str, Any]:
+        """FrameStats of the last call."""
+
 def position_groups(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(group id per vertex, first vertex per group), int64: exactly equal positions, first-occurrence order."""
 

@@ -1,14 +1,14 @@
 //! `Detector`: one method on one mesh, keeping its BVH (and sensor) between calls.
 
-use crate::convert::{pairs_array, points, points_array, rows_array};
+use crate::contacts::proximity_dict;
+use crate::convert::{pairs_array, points, points_array};
 use crate::errors::{engine_err, guard};
 use crate::mesh::PyMesh;
 use crate::stats::stats_dict;
-use numpy::{PyArray1, PyReadonlyArray2};
+use numpy::PyReadonlyArray2;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use selfcd::detect::ProximityContacts;
 use selfcd::sensor::SensorParams;
 use selfcd::{Detection, Detector, DetectorOptions, Method};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -199,50 +199,4 @@ impl PyDetector {
             None => Ok(None),
         }
     }
-}
-
-/// Proximity contacts as arrays: vertex-triangle pairs and edge-edge pairs
-/// (edge ids and their vertices), with distances and closest-point parameters.
-fn proximity_dict<'py>(
-    py: Python<'py>,
-    p: &ProximityContacts,
-    mesh: &selfcd::Mesh,
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let vt = &p.vertex_triangle;
-    d.set_item(
-        "vertex_triangle",
-        rows_array(py, vt.iter().map(|c| [c.vertex as i64, c.triangle as i64]))?,
-    )?;
-    d.set_item(
-        "vertex_triangle_distance",
-        PyArray1::from_vec(py, vt.iter().map(|c| c.distance).collect()),
-    )?;
-    d.set_item(
-        "vertex_triangle_bary",
-        rows_array(py, vt.iter().map(|c| c.bary))?,
-    )?;
-    let ee = &p.edge_edge;
-    let edges = &mesh.topology().edges;
-    d.set_item(
-        "edge_edge",
-        rows_array(
-            py,
-            ee.iter().map(|c| [c.edges[0] as i64, c.edges[1] as i64]),
-        )?,
-    )?;
-    let verts = ee.iter().map(|c| {
-        let (a, b) = (edges[c.edges[0] as usize], edges[c.edges[1] as usize]);
-        [a[0] as i64, a[1] as i64, b[0] as i64, b[1] as i64]
-    });
-    d.set_item("edge_edge_vertices", rows_array(py, verts)?)?;
-    d.set_item(
-        "edge_edge_distance",
-        PyArray1::from_vec(py, ee.iter().map(|c| c.distance).collect()),
-    )?;
-    d.set_item(
-        "edge_edge_params",
-        rows_array(py, ee.iter().map(|c| c.params))?,
-    )?;
-    Ok(d)
 }

@@ -9,11 +9,13 @@
 mod bench;
 mod cloth;
 mod compare;
+mod contacts;
 mod convert;
 mod detector;
 mod errors;
 mod inspect;
 mod mesh;
+mod queries;
 mod scene;
 mod stats;
 
@@ -54,6 +56,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cloth::paper_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(cloth::materials, m)?)?;
     m.add_class::<detector::PyDetector>()?;
+    m.add_class::<queries::PySelfQueries>()?;
     m.add_class::<inspect::PyHierarchy>()?;
     m.add_function(wrap_pyfunction!(inspect::sensor_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;

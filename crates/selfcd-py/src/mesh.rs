@@ -1,5 +1,6 @@
 //! `Mesh`: a validated triangle mesh shared by detectors.
 
+use crate::contacts::impacts_dict;
 use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
 use numpy::{PyArray1, PyReadonlyArray2};
@@ -136,8 +137,6 @@ pub fn continuous_impacts<'py>(
     x1: PyReadonlyArray2<'_, f64>,
     separation: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use selfcd::detect::continuous::Impact;
-    use selfcd::detect::narrow::ElementPair;
     let (a, b) = (points(&x0, "x0")?, points(&x1, "x1")?);
     let m = mesh.inner.clone();
     let found = py.detach(|| {
@@ -146,25 +145,5 @@ pub fn continuous_impacts<'py>(
             det.continuous(&a, &b, separation)
         })
     })?;
-    let ids = |i: &Impact| match i.pair {
-        ElementPair::VertexTriangle(x, y) | ElementPair::EdgeEdge(x, y) => [x as i64, y as i64],
-    };
-    let d = PyDict::new(py);
-    d.set_item(
-        "vertex_triangle",
-        rows_array(py, found.vertex_triangle.iter().map(ids))?,
-    )?;
-    d.set_item(
-        "vertex_triangle_toi",
-        PyArray1::from_iter(py, found.vertex_triangle.iter().map(|i| i.toi)),
-    )?;
-    d.set_item(
-        "edge_edge",
-        rows_array(py, found.edge_edge.iter().map(ids))?,
-    )?;
-    d.set_item(
-        "edge_edge_toi",
-        PyArray1::from_iter(py, found.edge_edge.iter().map(|i| i.toi)),
-    )?;
-    Ok(d)
+    impacts_dict(py, &found)
 }
