@@ -11,8 +11,14 @@ Four tables, each with ratios selfcd / peer (< 1: selfcd is faster):
    igl.predicates.find_self_intersections and warp build + query;
 3. proximity (vertex-triangle and edge-edge pairs closer than
    d = 0.6 x median edge length) against ipctk NormalCollisions (LBVH);
-4. continuous (one linear step from an intersection-free state) against ipctk
-   Candidates + collision-free step size (LBVH, Tight Inclusion CCD).
+   selfcd three ways: a detector kept across frames, one built per call, and
+   `selfcd.SelfQueries` kept across frames (the simulator's coherent queries:
+   the candidate set is built in the warm-up and reused, or rebuilt when stale,
+   in the timed runs);
+4. continuous against ipctk Candidates + collision-free step size (LBVH, Tight
+   Inclusion CCD): one large linear step from an intersection-free state, and
+   the small steps between the frames of the per-frame sequence, where
+   `selfcd.SelfQueries` keeps its candidate set from step to step.
 
 Peers are optional (`pip install .[bench]`: warp-lang, libigl, ipctk); a peer
 that does not import is reported as unavailable and selfcd is measured alone.
@@ -126,6 +132,11 @@ def prepare(inp: Input) -> Input:
     return inp
 
 
+def intersection_free(inp: Input) -> bool:
+    """Whether the state and every frame of the sequence are free of intersections."""
+    return all(len(selfcd.self_intersections(x, inp.faces)) == 0 for x in [inp.state, *inp.frames])
+
+
 def load_input(name: str, quick: bool) -> Input:
     if name in GRIDS:
         return prepare(grid_input(name, QUICK_TRIANGLES if quick else GRID_TRIANGLES))
@@ -151,6 +162,11 @@ def try_import(module: str) -> tuple[Any, str]:
 def pair_set(pairs: np.ndarray) -> set[tuple[int, int]]:
     p = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
     return set(map(tuple, p.tolist()))
+
+
+def pair_rows(found: dict[str, np.ndarray]) -> tuple[set, set]:
+    """The vertex-triangle and edge-edge pairs of a proximity or continuous answer."""
+    return tuple({tuple(r) for r in found[k].tolist()} for k in ("vertex_triangle", "edge_edge"))
 
 
 def non_adjacent(pairs: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -254,7 +270,11 @@ def med_ms(times: list[float]) -> float:
 
 
 def ratio(a: float, b: float) -> str:
-    return f"{a / b:.2f}" if b == b and a == a and b > 0 else "-"
+    """a / b to two decimals, or two significant digits below 0.1."""
+    if not (b == b and a == a and b > 0):
+        return "-"
+    r = a / b
+    return f"{r:.2f}" if r >= 0.1 or r == 0 else f"{r:.2g}"
 
 
 def ms(v: float) -> str:
@@ -348,8 +368,10 @@ def proximity(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) ->
         det.detect(p)
         return det
 
+    queries = selfcd.SelfQueries(mesh)
     runners: dict[str, Callable[[np.ndarray], Any]] = {
-        "selfcd": lambda p: (kept.detect(p), kept)[1], "selfcd_fresh": fresh}
+        "selfcd": lambda p: (kept.detect(p), kept)[1], "selfcd_fresh": fresh,
+        "selfcd_coherent": lambda p: queries.proximity(p, d)}
     if ipctk is not None:
         cm = ipc_mesh(ipctk, inp, mesh.edges)
 
@@ -369,6 +391,8 @@ def proximity(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) ->
                     times[k].append(t)
             tick(f"{inp.name} proximity {k}")
     prox = out["selfcd"].last_proximity
+    if pair_rows(prox) != pair_rows(out["selfcd_coherent"]):
+        raise AssertionError(f"{inp.name}: SelfQueries.proximity differs from the detector's")
     dists = np.concatenate([prox["vertex_triangle_distance"], prox["edge_edge_distance"]])
     row: dict[str, Any] = {
         "input": inp.name, "triangles": inp.triangles, "d": d,
@@ -387,7 +411,8 @@ def proximity(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) ->
 
 
 def continuous(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) -> dict[str, Any]:
-    """One linear step x0 -> x1 (a smooth wave of half an edge); both one-shot."""
+    """One large linear step x0 -> x1 (a smooth wave of half an edge), both one-shot; then
+    the small steps between the sequence's frames, per step (see `continuous_sequence`)."""
     x0 = inp.state
     x1 = wave(x0, STEP_AMPLITUDE * inp.edge, WAVELENGTH * inp.edge, 0.3)
     mesh = selfcd.Mesh(inp.rest, inp.faces)
@@ -419,6 +444,56 @@ def continuous(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) -
         row[f"{k}_ms"] = med_ms(times[k])
     if "ipctk" in out:
         row["ipctk_candidates"], row["ipctk_step"] = out["ipctk"]
+    row.update(continuous_sequence(inp, mesh, reps, ipctk, tick))
+    return row
+
+
+def continuous_sequence(inp: Input, mesh: selfcd.Mesh, reps: int, ipctk: Any,
+                        tick: Callable[[str], None]) -> dict[str, Any]:
+    """The steps frames[k] -> frames[k+1] of the per-frame sequence (as a simulator's
+    steps, small and coherent), timed per step: `selfcd.SelfQueries` kept across steps,
+    `selfcd.continuous_impacts` fresh per step, and ipctk per step. The coherent answers
+    are checked against the fresh ones."""
+    steps = list(zip(inp.frames, inp.frames[1:]))
+    queries = selfcd.SelfQueries(mesh)
+    reuses = [0, 0]  # candidate sets built, reused (timed runs)
+
+    def coherent(a: np.ndarray, b: np.ndarray) -> Any:
+        found = queries.continuous(a, b)
+        stats = queries.last_stats
+        reuses[0] += stats["candidate_builds"]
+        reuses[1] += stats["candidate_reuses"]
+        return found
+
+    runners: dict[str, Callable[[np.ndarray, np.ndarray], Any]] = {
+        "coherent": coherent, "fresh": lambda a, b: selfcd.continuous_impacts(mesh, a, b)}
+    if ipctk is not None:
+        cm = ipc_mesh(ipctk, inp, mesh.edges)
+
+        def ipc(a: np.ndarray, b: np.ndarray) -> float:
+            cand = ipctk.Candidates()
+            cand.build(cm, a, b, broad_phase=ipctk.LBVH())
+            return cand.compute_collision_free_stepsize(cm, a, b)
+
+        runners["ipctk"] = ipc
+    times: dict[str, list[float]] = {k: [] for k in runners}
+    pairs = 0
+    for rep in range(reps + 1):
+        if rep == 1:
+            reuses[:] = [0, 0]
+        for k, run in runners.items():
+            for a, b in steps:
+                t, found = timed(lambda run=run, a=a, b=b: run(a, b))
+                if rep:
+                    times[k].append(t)
+                if k == "coherent" and rep == reps:
+                    fresh = selfcd.continuous_impacts(mesh, a, b)
+                    if pair_rows(found) != pair_rows(fresh):
+                        raise AssertionError(f"{inp.name}: SelfQueries.continuous differs from a fresh query")
+                    pairs += sum(len(found[key]) for key in ("vertex_triangle", "edge_edge"))
+            tick(f"{inp.name} continuous sequence {k}")
+    row = {f"seq_{k}_ms": med_ms(v) for k, v in times.items()}
+    row.update(seq_steps=len(steps), seq_pairs=pairs, seq_builds=reuses[0], seq_reuses=reuses[1])
     return row
 
 
@@ -457,28 +532,34 @@ def oneshot_table(rows: list[dict[str, Any]]) -> str:
 
 
 def proximity_table(rows: list[dict[str, Any]]) -> str:
-    head = ["input", "triangles", "selfcd kept ms", "selfcd fresh ms", "ipctk ms", "kept/ipctk", "fresh/ipctk",
-            "selfcd VT+EE pairs", "ipctk collisions", "min distance selfcd / ipctk"]
+    head = ["input", "triangles", "selfcd kept ms", "selfcd fresh ms", "selfcd coherent ms", "ipctk ms",
+            "kept/ipctk", "fresh/ipctk", "coherent/ipctk", "selfcd VT+EE pairs", "ipctk collisions",
+            "min distance selfcd / ipctk"]
     body = []
     for r in rows:
         ip = r.get("ipctk_ms", float("nan"))
         md = r["selfcd_min_distance"], r.get("ipctk_min_distance")
-        body.append([r["input"], str(r["triangles"]), ms(r["selfcd_ms"]), ms(r["selfcd_fresh_ms"]), ms(ip),
-                     ratio(r["selfcd_ms"], ip), ratio(r["selfcd_fresh_ms"], ip),
+        body.append([r["input"], str(r["triangles"]), ms(r["selfcd_ms"]), ms(r["selfcd_fresh_ms"]),
+                     ms(r["selfcd_coherent_ms"]), ms(ip), ratio(r["selfcd_ms"], ip), ratio(r["selfcd_fresh_ms"], ip),
+                     ratio(r["selfcd_coherent_ms"], ip),
                      f"{r['selfcd_vertex_triangle']}+{r['selfcd_edge_edge']}", str(r.get("ipctk_collisions", "-")),
                      " / ".join("-" if v is None else f"{v:.6g}" for v in md)])
     return table(head, body)
 
 
 def continuous_table(rows: list[dict[str, Any]]) -> str:
-    head = ["input", "triangles", "selfcd ms", "ipctk ms", "selfcd/ipctk", "selfcd pairs, first toi",
-            "ipctk candidates, step"]
+    head = ["input", "triangles", "one step: selfcd ms", "ipctk ms", "selfcd/ipctk", "selfcd pairs, first toi",
+            "ipctk candidates, step", "sequence, per step: selfcd coherent ms", "selfcd fresh ms", "ipctk ms",
+            "coherent/ipctk", "fresh/ipctk", "steps, pairs, sets built/reused"]
     body = []
     for r in rows:
-        ip = r.get("ipctk_ms", float("nan"))
+        ip, sip = r.get("ipctk_ms", float("nan")), r.get("seq_ipctk_ms", float("nan"))
         peer = f"{r['ipctk_candidates']}, {r['ipctk_step']:.4g}" if "ipctk_step" in r else "-"
         body.append([r["input"], str(r["triangles"]), ms(r["selfcd_ms"]), ms(ip), ratio(r["selfcd_ms"], ip),
-                     f"{r['selfcd_pairs']}, {r['selfcd_first_toi']:.4g}", peer])
+                     f"{r['selfcd_pairs']}, {r['selfcd_first_toi']:.4g}", peer, ms(r["seq_coherent_ms"]),
+                     ms(r["seq_fresh_ms"]), ms(sip), ratio(r["seq_coherent_ms"], sip),
+                     ratio(r["seq_fresh_ms"], sip),
+                     f"{r['seq_steps']}, {r['seq_pairs']}, {r['seq_builds']}/{r['seq_reuses']}"])
     return table(head, body)
 
 
@@ -488,7 +569,8 @@ def report(results: dict[str, Any]) -> str:
     titles = {"per_frame": ("Per frame, hierarchy kept (refit + query), exact pairs; ms per frame", frame_table),
               "one_shot": ("One-shot (build + query)", oneshot_table),
               "proximity": ("Proximity, d = 0.6 x median edge length, per frame", proximity_table),
-              "continuous": ("Continuous, one step from an intersection-free state", continuous_table)}
+              "continuous": ("Continuous, from an intersection-free state: one large step, then the sequence's "
+                                "small steps", continuous_table)}
     for key, (title, fmt) in titles.items():
         if results[key]:
             parts.append(f"\n{title}\n\n{fmt(results[key])}")
@@ -545,7 +627,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     warp = Warp(wp) if wp is not None else None
     calls = {"per_frame": len(METHODS) + (warp is not None), "one_shot": 1 + (igl is not None) + (warp is not None),
-             "proximity": 2 + (ipctk is not None), "continuous": 1 + (ipctk is not None)}
+             "proximity": 3 + (ipctk is not None), "continuous": 3 + 2 * (ipctk is not None)}
     total = len(args.inputs) * (1 + (args.repeat + 1) * sum(calls[t] for t in args.tables))  # 1: loading
     bar = Progress(total, args.no_progress)
     status = 0
@@ -559,8 +641,8 @@ def main(argv: list[str] | None = None) -> int:
                 results["one_shot"].append(one_shot(inp, args.repeat, warp, igl, bar))
             if "proximity" in args.tables:
                 results["proximity"].append(proximity(inp, args.repeat, ipctk, bar))
-            # a continuous query assumes an intersection-free start
-            if "continuous" in args.tables and len(selfcd.self_intersections(inp.state, inp.faces)) == 0:
+            # continuous queries assume intersection-free starts
+            if "continuous" in args.tables and intersection_free(inp):
                 results["continuous"].append(continuous(inp, args.repeat, ipctk, bar))
     except KeyboardInterrupt:
         status = 130

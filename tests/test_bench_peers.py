@@ -48,6 +48,11 @@ def test_quick_run_with_installed_peers(tmp_path, bench):
         assert shot_row["libigl_vs_exact"] == [0, 0]
     # only the intersection-free input gets a continuous query
     assert [r["input"] for r in res["continuous"]] == ["folded"]
+    # the coherent queries ran (their answers are checked against fresh ones inside the script)
+    assert all(r["selfcd_coherent_ms"] > 0 for r in res["proximity"])
+    seq = res["continuous"][0]
+    assert seq["seq_steps"] == len(crumpled.frames) - 1 and seq["seq_coherent_ms"] > 0
+    assert seq["seq_builds"] + seq["seq_reuses"] == seq["seq_steps"]
 
 
 def test_missing_peers_are_reported_unavailable(monkeypatch, capsys, bench):
