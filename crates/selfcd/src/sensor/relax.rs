@@ -193,8 +193,9 @@ impl Sensor {
         })
     }
 
-    /// Follows the convex parts `parts` of the current shape (paper 2.1) with
-    /// persistent particles, towards `target` particles:
+    /// Follows the convex parts `parts` of the current shape (paper 2.1; seen
+    /// by these particles, in their order) with persistent particles, towards
+    /// `target` particles:
     ///
     /// - merge: while there are more particles than `target`, a particle whose
     ///   part already holds an earlier particle is removed (merged into that
@@ -214,11 +215,8 @@ impl Sensor {
         let excess = self.points.len().saturating_sub(target);
         let mut held = vec![false; parts.len()];
         let (mut keep, mut removed) = (Vec::with_capacity(self.points.len()), 0);
-        for p in &self.points {
-            let (part, c) = (
-                parts.of_triangle[p.tri as usize] as usize,
-                comp[p.tri as usize] as usize,
-            );
+        for (p, &part) in self.points.iter().zip(&parts.of_point) {
+            let (part, c) = (part as usize, comp[p.tri as usize] as usize);
             let merge = held[part] && removed < excess && per_comp[c] > 1;
             removed += merge as usize;
             per_comp[c] -= merge as usize;
