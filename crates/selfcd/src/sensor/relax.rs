@@ -11,7 +11,7 @@
 //! the tolerance; the relaxation also stops as soon as it triggers.
 
 use super::forces::{forces, Local};
-use super::odl::OriginalDistance;
+use super::odl::{Located, OriginalDistance};
 use super::params::SensorParams;
 use super::particle::SurfacePoint;
 use super::parts::Parts;
@@ -39,6 +39,8 @@ pub struct Sensor {
     unit: f64,
     margin: f64,
     locals: Vec<Local>,
+    /// The particles' rest points ([`OriginalDistance::locate`]), per update.
+    located: Vec<Located>,
     forces: Vec<DVec3>,
     /// Per particle step control (see [`Sensor::update`]); persistent across frames.
     damping: Vec<Damping>,
@@ -188,6 +190,7 @@ impl Sensor {
             unit,
             margin: 0.0,
             locals: Vec::new(),
+            located: Vec::new(),
             forces: Vec::new(),
             damping: Vec::new(),
         })
@@ -352,9 +355,10 @@ impl Sensor {
                 .map(|p| Local::new(mesh, positions, p, unit)),
         );
         self.odl.refresh(&self.points);
+        self.odl.locate(&self.points, &mut self.located);
         forces(
             &self.locals,
-            &self.points,
+            (&self.points, &self.located),
             &self.odl,
             self.params.a,
             self.params.b,
@@ -376,6 +380,7 @@ impl Sensor {
             *p = walk::step(mesh, &l.map, *p, step * unit);
         }
         self.load_corners(raw);
+        self.odl.locate(&self.points, &mut self.located);
         let mesh = &*self.norm;
         let mut moving = 0;
         for ((p, l), dmp) in self.points.iter().zip(&self.locals).zip(&mut self.damping) {
@@ -392,10 +397,12 @@ impl Sensor {
     /// (then it does not trigger). First such pair on ties.
     pub fn closest(&mut self, positions: &[DVec3]) -> ClosestPair {
         self.load_corners(positions);
+        self.odl.locate(&self.points, &mut self.located);
         self.closest_in_frame()
     }
 
-    /// [`Sensor::closest`] at the positions in the buffer.
+    /// [`Sensor::closest`] at the positions in the buffer, with the particles
+    /// located ([`OriginalDistance::locate`]) where they are.
     fn closest_in_frame(&self) -> ClosestPair {
         let unit = self.norm.mean_edge_length();
         let cur: Vec<DVec3> = self
@@ -413,7 +420,11 @@ impl Sensor {
         for i in 0..cur.len() {
             for j in i + 1..cur.len() {
                 let sl = cur[i].distance(cur[j]) / unit;
-                let path = self.odl.path(&self.points, i, j);
+                let path = self.odl.path_between(
+                    (&self.points[i], &self.located[i]),
+                    (&self.points[j], &self.located[j]),
+                    j,
+                );
                 let odl = path.length;
                 let folded = !(sl > (1.0 - FOLD_T) * path.lower);
                 if (folded, -sl) > (best.folded, -best.sl) {
