@@ -289,6 +289,26 @@ fn relaxation_stops_by_n_max_or_n_min() {
     assert_eq!(run(0, 7).steps, 7);
 }
 
+/// A pair budget caps a frame's updates at budget / k^2 (at least one, at most N_max).
+#[test]
+fn the_pair_budget_caps_the_updates_of_a_frame() {
+    let mesh = square(21, 1.0);
+    let points = cluster(&mesh, 0.3);
+    let k = points.len();
+    let p = SensorParams {
+        n_min: 0,
+        n_max: 7,
+        ..Default::default()
+    };
+    let mut s = Sensor::with_points(mesh.clone(), p, points).unwrap();
+    assert_eq!(s.max_updates(), 7);
+    for (budget, most) in [(3 * k * k + 1, 3), (k * k - 1, 1), (0, 1), (100 * k * k, 7)] {
+        s.set_pair_budget(budget);
+        assert_eq!(s.max_updates(), most, "budget {budget}");
+        assert_eq!(s.relax(mesh.rest()).unwrap().steps, most, "budget {budget}");
+    }
+}
+
 #[test]
 fn sensor_gated_against_brute_counts_what_the_gate_missed() {
     let mesh = square(11, 1.0);

@@ -93,6 +93,17 @@ impl Probes {
     }
 }
 
+/// Pair terms one frame's relaxation may spend: triangles / this
+/// ([`Sensor::set_pair_budget`]). The same share as [`max_particles`]: at the
+/// most particles a frame makes one update, with fewer it makes more (up to N_max).
+pub const PAIR_BUDGET: usize = 4;
+
+/// Least pair budget of a frame: 8 updates (N_max) of 11 particles. On a
+/// small mesh (under 4,096 triangles) the relaxation is cheap in absolute
+/// terms, and its particles, few for the mesh, need their updates to follow a
+/// fold (the sphere's crumple misses 209 contacts at n / 4).
+pub const MIN_PAIR_BUDGET: usize = 1024;
+
 /// Most particles on a mesh of `triangles` triangles: sqrt(triangles / 4).
 /// One relaxation update costs k^2 pair terms and a quiet frame of the exact
 /// method at least a refit of its 2 n - 1 nodes, so k^2 <= n / 4 keeps one
@@ -155,6 +166,7 @@ impl SensorGatedDetector {
         };
         let mut sensor = Sensor::new(mesh.clone(), params.clone())?;
         sensor.set_margin(thickness);
+        sensor.set_pair_budget((mesh.n_triangles() / PAIR_BUDGET).max(MIN_PAIR_BUDGET));
         let particles = sensor.positions(mesh.rest());
         Ok(SensorGatedDetector {
             bvh,

@@ -38,6 +38,8 @@ pub struct Sensor {
     odl: OriginalDistance,
     unit: f64,
     margin: f64,
+    /// Pair terms one frame's relaxation may spend, if bounded (see [`Sensor::set_pair_budget`]).
+    pair_budget: Option<usize>,
     locals: Vec<Local>,
     /// The particles' rest points ([`OriginalDistance::locate`]), per update.
     located: Vec<Located>,
@@ -189,6 +191,7 @@ impl Sensor {
             odl,
             unit,
             margin: 0.0,
+            pair_budget: None,
             locals: Vec::new(),
             located: Vec::new(),
             forces: Vec::new(),
@@ -255,6 +258,24 @@ impl Sensor {
             .set_reach(2.0 * self.trigger_distance() / (1.0 - FOLD_T));
     }
 
+    /// Bounds the updates of one frame to `pairs` pair terms: with k
+    /// particles, an update costs k^2 of them (forces and the closest pair),
+    /// so a frame makes at most pairs / k^2 updates (at least one, at most
+    /// N_max). The gated detector sets this to a share of the mesh's size, so
+    /// that many particles (a shape of many parts) cost a bounded share of the
+    /// exact method; without it, a frame makes up to N_max updates.
+    pub fn set_pair_budget(&mut self, pairs: usize) {
+        self.pair_budget = Some(pairs);
+    }
+
+    /// The most updates of one frame: N_max, or fewer under the pair budget.
+    pub fn max_updates(&self) -> u32 {
+        let k = self.points.len().max(1);
+        let n_max = self.params.n_max;
+        self.pair_budget
+            .map_or(n_max, |b| (b / (k * k)).clamp(1, n_max as usize) as u32)
+    }
+
     /// The trigger distance: tolerance + margin (mean-edge units).
     pub fn trigger_distance(&self) -> f64 {
         self.params.tolerance + self.margin
@@ -302,13 +323,13 @@ impl Sensor {
     /// from where they are on the next frame. On a shape with contacts at rest
     /// (a garment on a body) every frame triggers and makes one update.
     pub(crate) fn relax_checked(&mut self, positions: &[DVec3]) -> Relaxation {
-        let mut steps = 0;
+        let (mut steps, most) = (0, self.max_updates());
         loop {
             let moving = self.step(positions);
             steps += 1;
             let closest = self.closest_in_frame();
             let triggered = closest.folded && closest.sl < self.trigger_distance();
-            if triggered || moving < self.params.n_min || steps >= self.params.n_max {
+            if triggered || moving < self.params.n_min || steps >= most {
                 return Relaxation {
                     steps,
                     moving,
