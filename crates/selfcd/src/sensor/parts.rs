@@ -32,8 +32,13 @@ use crate::geom::NormalCone;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
-/// Triangles sampled per coarse leaf.
-pub const SAMPLES: usize = 4;
+/// Triangles sampled per coarse leaf. With the gated detector's leaves (8
+/// per particle at most: 63 triangles on skirt_32k, 35 on a 20k sheet) a
+/// fit reads a quarter to a half of the triangles' normals and no box. Four
+/// samples (a sixteenth) missed 351 and 706 contacts of skirt_32k's 10- and
+/// 40-frame folds, 16 none (BENCHMARKS.md, "sensor-5: quiet cost"); the count
+/// decides where particles go, and placement on a fast fold is sensitive to it.
+pub const SAMPLES: usize = 16;
 
 /// No parent (the root of the coarse tree).
 const NONE: u32 = u32::MAX;
