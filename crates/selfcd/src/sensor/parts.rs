@@ -206,15 +206,16 @@ impl PartTree {
             (a + b + c) / 3.0
         };
         let mut mean = vec![(DVec3::ZERO, 0.0); nodes.len()];
-        for l in 0..self.n_leaves {
-            let m = &mut mean[part[l] as usize];
+        let leaf_parts = &part[..self.n_leaves];
+        for (l, &p) in leaf_parts.iter().enumerate() {
+            let m = &mut mean[p as usize];
             for &t in self.leaf_samples(l) {
                 *m = (m.0 + centroid(t), m.1 + 1.0);
             }
         }
         let mut best = vec![(f64::INFINITY, NONE); nodes.len()];
-        for l in 0..self.n_leaves {
-            let p = part[l] as usize;
+        for (l, &p) in leaf_parts.iter().enumerate() {
+            let p = p as usize;
             let centre = mean[p].0 / mean[p].1;
             for &t in self.leaf_samples(l) {
                 let d = centroid(t).distance_squared(centre);
