@@ -9,11 +9,14 @@
 //! shape moved since the last count (a distance between the particles'
 //! surface points of that count changed by more than the trigger tolerance,
 //! or their normals turned by about 30 degrees), and every [`RECOUNT`]
-//! frames, the parts are counted from sampled cones ([`PartTree`]: no refit,
-//! about [`crate::sensor::parts::SAMPLES`] / leaf size of one); when the count
-//! (clamped to [`count`, [`max_particles`]]) differs from the particles',
-//! [`Sensor::follow_parts`] adds particles where parts appeared and merges
-//! them where parts vanished. Otherwise the particles persist as they are.
+//! frames, the parts are counted from sampled cones ([`PartTree`]: no refit;
+//! [`crate::sensor::parts::SAMPLES`] triangles read per coarse leaf); when the
+//! count (clamped to [`count`, [`max_particles`]]) differs from the
+//! particles', [`Sensor::follow_parts`] adds particles where parts appeared
+//! and merges them where parts vanished. Otherwise the particles persist as
+//! they are. A frame's relaxation spends at most triangles / [`PAIR_BUDGET`]
+//! pair terms (at least [`MIN_PAIR_BUDGET`]; [`Sensor::set_pair_budget`]), so
+//! many particles make fewer updates per frame.
 
 use super::hierarchy::BvhDetector;
 use super::{Detection, Detector, Method};
