@@ -6,7 +6,7 @@
 //! much nor changes its topology, so the surface distance is measured in rest
 //! space, with three cases:
 //!
-//! - Different components ([`super::components`]): no surface path, ro is
+//! - Different components ([`crate::Mesh::triangle_components`]): no surface path, ro is
 //!   infinite (no repulsion; attraction only, with t against the rest chord:
 //!   see [`super::forces`]).
 //! - Flat rest shape (every vertex within [`FLAT_TOLERANCE`] of one plane):
