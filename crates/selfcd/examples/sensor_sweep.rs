@@ -15,7 +15,17 @@
 //! cargo run --release -p selfcd --example sensor_sweep [-- [--big] [--count K] | --sweep [--fine]]
 //! cargo run --release -p selfcd --example sensor_sweep -- --table [--frames F] [--settle N] [--data DIR] [--only NAME,=EXACT,...]
 //! cargo run --release -p selfcd --example sensor_sweep -- --sweep-gate
+//! RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/sensor_sweep --cost MESH ANIM [--frames F] [--settle N]
 //! ```
+//!
+//! `--cost` measures the quiet-frame cost in instructions rather than seconds
+//! (the wall clock of a shared machine is noise at these sizes): a first pass
+//! finds the frames the gate does not trigger on; a second pass, with fresh
+//! detectors (the gate is deterministic, so the same frames are quiet), runs
+//! those frames through `exact_quiet_frame` and `gated_quiet_frame`, whose
+//! inclusive instruction counts (`callgrind_annotate --inclusive=yes`) give
+//! the ratio. MESH is a grid side (`101`) or a name in `--data`; ANIM a name of
+//! the table's animations (`rest`, `fold`, `roll`, `twist`, `bend`, `crumple`).
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -313,6 +323,13 @@ fn main() {
     }
     if args.iter().any(|a| a == "--crumple") {
         crumple(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--cost") {
+        // Inside the pool, so that the detectors' parallel work runs on the
+        // calling thread's stack (callgrind's inclusive counts follow it).
+        let pool = rayon::ThreadPoolBuilder::new().build().unwrap();
+        pool.install(|| cost(&args));
         return;
     }
     if args.iter().any(|a| a == "--sweep-gate") {
@@ -638,4 +655,77 @@ fn crumple(args: &[String]) {
             &gate_row(&mesh, shapes),
         );
     }
+}
+
+/// One quiet frame of the exact method (a separate function, so that callgrind
+/// attributes its instructions; see `--cost`).
+#[inline(never)]
+fn exact_quiet_frame(det: &mut dyn selfcd::Detector, shape: &[DVec3]) -> usize {
+    det.detect(shape).unwrap().pairs.len()
+}
+
+/// One quiet frame of the gate (see [`exact_quiet_frame`]).
+#[inline(never)]
+fn gated_quiet_frame(det: &mut dyn selfcd::Detector, shape: &[DVec3]) -> usize {
+    det.detect(shape).unwrap().pairs.len()
+}
+
+/// Any other frame, either method.
+#[inline(never)]
+fn other_frame(det: &mut dyn selfcd::Detector, shape: &[DVec3]) -> usize {
+    det.detect(shape).unwrap().pairs.len()
+}
+
+/// `--cost MESH ANIM [--frames F] [--settle N] [--data DIR]`: see the module documentation.
+fn cost(args: &[String]) {
+    let i = args.iter().position(|a| a == "--cost").unwrap();
+    let (name, anim) = (&args[i + 1], &args[i + 2]);
+    let frames: usize = arg_value(args, "--frames").map_or(40, |s| s.parse().unwrap());
+    let data = arg_value(args, "--data").unwrap_or("/work/shared/data");
+    let (v, f) = match name.parse::<usize>() {
+        Ok(side) => grid(side, 1.0),
+        Err(_) => obj::read_obj(&format!("{data}/{name}.obj")),
+    };
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let (_, shape) = table_anims()
+        .into_iter()
+        .find(|(a, _)| a.starts_with(anim.as_str()))
+        .expect("an animation of the table");
+    let shapes: Vec<Vec<DVec3>> = (0..frames)
+        .map(|f| shape(f as f64 / (frames - 1) as f64, mesh.rest()))
+        .collect();
+    let opts = DetectorOptions::default();
+    let fresh = || {
+        let mut exact = selfcd::new_detector(mesh.clone(), Method::BvhConesContour, &opts).unwrap();
+        let mut gated = selfcd::new_detector(mesh.clone(), Method::SensorGated, &opts).unwrap();
+        for _ in 0..settle_frames() {
+            other_frame(&mut *exact, &shapes[0]);
+            other_frame(&mut *gated, &shapes[0]);
+        }
+        (exact, gated)
+    };
+    let (mut exact, mut gated) = fresh();
+    let quiet: Vec<bool> = shapes
+        .iter()
+        .map(|s| {
+            exact.detect(s).unwrap();
+            gated.detect(s).unwrap().stats.triggered != Some(true)
+        })
+        .collect();
+    let (mut exact, mut gated) = fresh();
+    for (s, &q) in shapes.iter().zip(&quiet) {
+        if q {
+            exact_quiet_frame(&mut *exact, s);
+            let got = gated_quiet_frame(&mut *gated, s);
+            assert_eq!(got, 0, "a quiet frame of the second pass triggered");
+        } else {
+            other_frame(&mut *exact, s);
+            other_frame(&mut *gated, s);
+        }
+    }
+    println!(
+        "{name} {anim}: {} frames, {} quiet (gated_quiet_frame / exact_quiet_frame in callgrind)",
+        frames,
+        quiet.iter().filter(|&&q| q).count()
+    );
 }

@@ -289,6 +289,26 @@ fn relaxation_stops_by_n_max_or_n_min() {
     assert_eq!(run(0, 7).steps, 7);
 }
 
+/// A pair budget caps a frame's updates at budget / k^2 (at least one, at most N_max).
+#[test]
+fn the_pair_budget_caps_the_updates_of_a_frame() {
+    let mesh = square(21, 1.0);
+    let points = cluster(&mesh, 0.3);
+    let k = points.len();
+    let p = SensorParams {
+        n_min: 0,
+        n_max: 7,
+        ..Default::default()
+    };
+    let mut s = Sensor::with_points(mesh.clone(), p, points).unwrap();
+    assert_eq!(s.max_updates(), 7);
+    for (budget, most) in [(3 * k * k + 1, 3), (k * k - 1, 1), (0, 1), (100 * k * k, 7)] {
+        s.set_pair_budget(budget);
+        assert_eq!(s.max_updates(), most, "budget {budget}");
+        assert_eq!(s.relax(mesh.rest()).unwrap().steps, most, "budget {budget}");
+    }
+}
+
 #[test]
 fn sensor_gated_against_brute_counts_what_the_gate_missed() {
     let mesh = square(11, 1.0);
@@ -883,32 +903,28 @@ fn follow_parts_adds_merges_and_keeps_the_rest() {
     let mut sensor =
         Sensor::with_points(mesh.clone(), SensorParams::default(), start.clone()).unwrap();
     // Parts: triangles 0..16 part 0, 16..32 part 1, the second sheet part 2.
-    let of_triangle: Vec<u32> = (0..64)
-        .map(|t| {
-            if t < 16 {
-                0
-            } else if t < 32 {
-                1
-            } else {
-                2
-            }
-        })
-        .collect();
-    let parts = Parts {
-        of_triangle,
+    let three = |points: &[SurfacePoint]| Parts {
+        of_point: points
+            .iter()
+            .map(|p| match p.tri {
+                0..16 => 0,
+                16..32 => 1,
+                _ => 2,
+            })
+            .collect(),
         size: vec![16, 16, 32],
         anchor: vec![5, 20, 50],
     };
     // Target 3: one merge is enough (particle 1 shares part 0 with particle 0).
-    assert_eq!(sensor.follow_parts(&parts, 3), (0, 1));
+    assert_eq!(sensor.follow_parts(&three(sensor.points()), 3), (0, 1));
     assert_eq!(sensor.points(), &[at(0), at(2), at(40)]);
     // Target 4: part 1 holds none, a particle goes to its anchor; the others stay.
-    assert_eq!(sensor.follow_parts(&parts, 4), (1, 0));
+    assert_eq!(sensor.follow_parts(&three(sensor.points()), 4), (1, 0));
     assert_eq!(sensor.points(), &[at(0), at(2), at(40), at(20)]);
-    assert_eq!(sensor.follow_parts(&parts, 4), (0, 0));
+    assert_eq!(sensor.follow_parts(&three(sensor.points()), 4), (0, 0));
     // One part, target 1: the second sheet's particle is the last of its component and stays.
     let one_part = Parts {
-        of_triangle: vec![0; 64],
+        of_point: vec![0; sensor.points().len()],
         size: vec![64],
         anchor: vec![0],
     };

@@ -5,32 +5,34 @@
 //! [`super::compare::compare_methods`] counts what it misses.
 //!
 //! The particle count follows the convex parts of the current shape
-//! ([`crate::sensor::parts`]): on every triggered frame (whose refit is paid
-//! anyway), on a frame where the shape moved since the last count (a distance
-//! between the particles' surface points of that count changed by more than
-//! the trigger tolerance, or their normals turned by about 30 degrees), and
-//! every [`RECOUNT`] frames, the parts
-//! are counted from the refitted cones; when the count (clamped to [`count`,
-//! [`max_particles`]]) differs from the particles', [`Sensor::follow_parts`]
-//! adds particles where parts appeared and merges them where parts vanished.
-//! Otherwise the particles persist as they are.
+//! ([`crate::sensor::parts`]): on every triggered frame, on a frame where the
+//! shape moved since the last count (a distance between the particles'
+//! surface points of that count changed by more than the trigger tolerance,
+//! or their normals turned by about 30 degrees), and every [`RECOUNT`]
+//! frames, the parts are counted from sampled cones ([`PartTree`]: no refit;
+//! [`crate::sensor::parts::SAMPLES`] triangles read per coarse leaf); when the
+//! count (clamped to [`count`, [`max_particles`]]) differs from the
+//! particles', [`Sensor::follow_parts`] adds particles where parts appeared
+//! and merges them where parts vanished. Otherwise the particles persist as
+//! they are. A frame's relaxation spends at most triangles / [`PAIR_BUDGET`]
+//! pair terms (at least [`MIN_PAIR_BUDGET`]; [`Sensor::set_pair_budget`]), so
+//! many particles make fewer updates per frame.
 
 use super::hierarchy::BvhDetector;
 use super::{Detection, Detector, Method};
 use crate::error::Result;
 use crate::mesh::Mesh;
-use crate::sensor::parts::{convex_parts, Parts};
+use crate::sensor::parts::PartTree;
 use crate::sensor::{Relaxation, Sensor, SensorParams, SurfacePoint};
 use crate::stats::FrameStats;
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Most frames between two part counts. A count refits the BVH (the exact
-/// method's cost on a quiet frame is at least its refit), so on a shape at rest
-/// it costs 1/64 of the exact method; a moving shape is recounted when it moved
-/// (see the module documentation), so the period only bounds how long a change that the probes
-/// cannot see (within a part, between particles) goes uncounted.
+/// Most frames between two part counts. A moving shape is recounted when it
+/// moved (see the module documentation), so the period only bounds how long a
+/// change that the probes cannot see (within a part, between particles) goes
+/// uncounted.
 pub const RECOUNT: u64 = 64;
 
 /// The shape seen at the last part count: the particles' surface points then,
@@ -94,6 +96,17 @@ impl Probes {
     }
 }
 
+/// Pair terms one frame's relaxation may spend: triangles / this
+/// ([`Sensor::set_pair_budget`]). The same share as [`max_particles`]: at the
+/// most particles a frame makes one update, with fewer it makes more (up to N_max).
+pub const PAIR_BUDGET: usize = 4;
+
+/// Least pair budget of a frame: 8 updates (N_max) of 11 particles. On a
+/// small mesh (under 4,096 triangles) the relaxation is cheap in absolute
+/// terms, and its particles, few for the mesh, need their updates to follow a
+/// fold (the sphere's crumple misses 209 contacts at n / 4).
+pub const MIN_PAIR_BUDGET: usize = 1024;
+
 /// Most particles on a mesh of `triangles` triangles: sqrt(triangles / 4).
 /// One relaxation update costs k^2 pair terms and a quiet frame of the exact
 /// method at least a refit of its 2 n - 1 nodes, so k^2 <= n / 4 keeps one
@@ -103,10 +116,23 @@ pub fn max_particles(triangles: usize) -> usize {
     ((triangles as f64 / 4.0).sqrt()) as usize
 }
 
+/// Coarse leaves of the part count per particle at most: the count resolves
+/// parts of about triangles / (this x [`max_particles`]) triangles, finer
+/// than the most particles it can ask for.
+pub const LEAVES_PER_PARTICLE: usize = 8;
+
+/// Triangles per coarse leaf of the part count on a mesh of `triangles`
+/// triangles with at most `most` particles (see [`LEAVES_PER_PARTICLE`]).
+pub fn part_leaf_size(triangles: usize, most: usize) -> usize {
+    (triangles / (LEAVES_PER_PARTICLE * most.max(1))).max(1)
+}
+
 /// Particle sensor in front of a BVH detector (`params.inner`).
 pub struct SensorGatedDetector {
     bvh: BvhDetector,
     sensor: Sensor,
+    /// The sampled cones that count the parts.
+    parts: PartTree,
     particles: Vec<DVec3>,
     refit_every_frame: bool,
     /// Particle count bounds: [`SensorParams::count`], [`SensorParams::max_count`].
@@ -128,22 +154,27 @@ impl SensorGatedDetector {
     pub fn new(mesh: Arc<Mesh>, thickness: f64, params: &SensorParams) -> Result<Self> {
         params.validate()?;
         let bvh = BvhDetector::new(mesh.clone(), params.inner, thickness);
-        let parts = convex_parts(bvh.bvh());
         let bounds = (
             params.count,
             max_particles(mesh.n_triangles()).clamp(params.count, params.max_count),
         );
+        let mut parts = PartTree::new(bvh.bvh(), part_leaf_size(mesh.n_triangles(), bounds.1));
         let params = SensorParams {
-            count: parts.clamp(bounds.0, bounds.1),
+            count: parts
+                .fit(&mesh, mesh.rest())
+                .len()
+                .clamp(bounds.0, bounds.1),
             max_count: bounds.1,
             ..params.clone()
         };
         let mut sensor = Sensor::new(mesh.clone(), params.clone())?;
         sensor.set_margin(thickness);
+        sensor.set_pair_budget((mesh.n_triangles() / PAIR_BUDGET).max(MIN_PAIR_BUDGET));
         let particles = sensor.positions(mesh.rest());
         Ok(SensorGatedDetector {
             bvh,
             sensor,
+            parts,
             particles,
             refit_every_frame: params.refit_every_frame,
             bounds,
@@ -158,14 +189,17 @@ impl SensorGatedDetector {
         &self.sensor
     }
 
-    /// Reads the parts of the shape the BVH was just refitted to and follows
-    /// them. Counting the parts visits only the nodes above them; the O(n)
-    /// labelling runs only when the count asks for particles to be added or merged.
+    /// Counts the parts of `positions` and follows them. The labelling (over
+    /// the samples) runs only when the count asks for particles to be added or merged.
     fn follow_parts(&mut self, positions: &[DVec3]) {
         self.counted = self.frame;
-        let target = convex_parts(self.bvh.bvh()).clamp(self.bounds.0, self.bounds.1);
+        let mesh = self.bvh.mesh();
+        let nodes = self.parts.fit(mesh, positions);
+        let target = nodes.len().clamp(self.bounds.0, self.bounds.1);
         if target != self.sensor.points().len() {
-            let parts = Parts::new(self.bvh.bvh(), self.bvh.mesh(), positions);
+            let parts = self
+                .parts
+                .parts(&nodes, mesh, positions, self.sensor.points());
             self.sensor.follow_parts(&parts, target);
         }
         self.probes = Probes::new(self.bvh.mesh(), self.sensor.points(), positions);
@@ -212,7 +246,7 @@ impl Detector for SensorGatedDetector {
             t0.elapsed().as_secs_f64()
         };
         let recount = self.recount_due(positions);
-        let refitted = self.refit_every_frame || recount;
+        let refitted = self.refit_every_frame;
         let mut refit = if refitted {
             timed_refit(&mut self.bvh)
         } else {
@@ -230,7 +264,7 @@ impl Detector for SensorGatedDetector {
             }
             let det = self.bvh.traverse(positions)?;
             if !recount {
-                // The refit is paid: follow the parts of this shape for the next frame.
+                // Follow the parts of this shape for the next frame.
                 let t0 = Instant::now();
                 self.follow_parts(positions);
                 sensor_time += t0.elapsed().as_secs_f64();

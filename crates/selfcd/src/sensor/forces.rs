@@ -31,7 +31,7 @@
 //! other, and pieces that approach each other (a sheet coming down on another)
 //! attract as t rises towards 1.
 
-use super::odl::{OriginalDistance, Path};
+use super::odl::{Located, OriginalDistance, Path};
 use super::particle::SurfacePoint;
 use super::tangent::TriMap;
 use crate::mesh::Mesh;
@@ -95,10 +95,11 @@ pub fn pair_force(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> DVec3 {
     attract - tangent * (b / (ro * ro))
 }
 
-/// Writes F_i for every particle i (normalised units, current-space directions) into `out`.
+/// Writes F_i for every particle i (normalised units, current-space directions)
+/// into `out`; `at` is [`OriginalDistance::locate`] of `points`.
 pub fn forces(
     locals: &[Local],
-    points: &[SurfacePoint],
+    (points, at): (&[SurfacePoint], &[Located]),
     odl: &OriginalDistance,
     a: f64,
     b: f64,
@@ -106,11 +107,15 @@ pub fn forces(
 ) {
     out.clear();
     out.extend(locals.iter().enumerate().map(|(i, li)| {
+        let from = (&points[i], &at[i]);
         locals
             .iter()
             .enumerate()
             .filter(|&(j, _)| j != i)
-            .map(|(j, lj)| pair_force(li, lj, &odl.path(points, i, j), a, b))
+            .map(|(j, lj)| {
+                let path = odl.path_between(from, (&points[j], &at[j]), j);
+                pair_force(li, lj, &path, a, b)
+            })
             .sum::<DVec3>()
     }));
 }

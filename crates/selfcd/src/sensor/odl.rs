@@ -6,7 +6,7 @@
 //! much nor changes its topology, so the surface distance is measured in rest
 //! space, with three cases:
 //!
-//! - Different components ([`super::components`]): no surface path, ro is
+//! - Different components ([`crate::Mesh::triangle_components`]): no surface path, ro is
 //!   infinite (no repulsion; attraction only, with t against the rest chord:
 //!   see [`super::forces`]).
 //! - Flat rest shape (every vertex within [`FLAT_TOLERANCE`] of one plane):
@@ -108,6 +108,15 @@ pub struct Path {
     /// Rest-space direction at the first particle towards the second (in its
     /// triangle's plane up to the chord case); zero between components or when undefined.
     pub direction: DVec3,
+}
+
+/// A particle's point in the normalised rest copy and its component ([`OriginalDistance::locate`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Located {
+    /// Position in the normalised rest copy.
+    pub rest: DVec3,
+    /// Component of its triangle.
+    pub component: u32,
 }
 
 /// A geodesic field and the rest point it was computed from.
@@ -219,11 +228,35 @@ impl OriginalDistance {
         self.fields.retain(|_| *k.next().unwrap_or(&true));
     }
 
+    /// Where each of `points` is in the normalised rest copy, and its
+    /// component: what every path from or to it reads. Computed once per
+    /// update, not once per pair.
+    pub fn locate(&self, points: &[SurfacePoint], out: &mut Vec<Located>) {
+        out.clear();
+        out.extend(points.iter().map(|p| Located {
+            rest: p.position(&self.mesh, &self.rest),
+            component: self.component[p.tri as usize],
+        }));
+    }
+
     /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
     pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
-        let (pi, pj) = (&points[i], &points[j]);
-        let chord = pj.position(&self.mesh, &self.rest) - pi.position(&self.mesh, &self.rest);
-        if self.component[pi.tri as usize] != self.component[pj.tri as usize] {
+        let mut at = Vec::with_capacity(2);
+        self.locate(&[points[i], points[j]], &mut at);
+        self.path_between((&points[i], &at[0]), (&points[j], &at[1]), j)
+    }
+
+    /// [`Self::path`] from particle `pi` to particle `j`, `pj`, each with its
+    /// [`Located`] point.
+    #[inline]
+    pub fn path_between(
+        &self,
+        (pi, ai): (&SurfacePoint, &Located),
+        (pj, aj): (&SurfacePoint, &Located),
+        j: usize,
+    ) -> Path {
+        let chord = aj.rest - ai.rest;
+        if ai.component != aj.component {
             return Path {
                 length: f64::INFINITY,
                 chord: chord.length(),
@@ -267,8 +300,7 @@ impl OriginalDistance {
             // The field is from j's source, up to REFRESH from j: its value
             // at i is off by at most that offset (triangle inequality, with
             // the rest chord standing in for the short surface path).
-            lower: (along - longest - field.source.distance(pj.position(&self.mesh, &self.rest)))
-                .max(straight.length),
+            lower: (along - longest - field.source.distance(aj.rest)).max(straight.length),
             direction,
             ..straight
         }

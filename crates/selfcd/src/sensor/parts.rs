@@ -1,49 +1,273 @@
 //! Convex parts (paper 2.1: "the number of particles equals the number of
-//! convex parts of the object"), read from the hierarchy's normal cones: the
-//! fewest hierarchy nodes whose normal cones have a half-angle under 90
+//! convex parts of the object"), read from normal cones over the hierarchy:
+//! the fewest hierarchy nodes whose normal cones have a half-angle under 90
 //! degrees (all normals in one open half-space: the traversal's own cone
-//! criterion, [`crate::geom::NormalCone::is_positive`]) and that together cover the mesh.
-//! A node's cone holds its children's, so the top-most qualifying nodes are
-//! that fewest set; a leaf's cone (one triangle) always qualifies. A flat
-//! sheet is one part, a tube or a sphere a few, a crumpled sheet many.
+//! criterion, [`crate::geom::NormalCone::is_positive`]) and that together
+//! cover the mesh. A node's cone holds its children's, so the top-most
+//! qualifying nodes are that fewest set. A flat sheet is one part, a tube or a
+//! sphere a few, a crumpled sheet many.
 //!
-//! [`Parts`] labels every triangle with its part, so that the sensor can see
-//! which parts carry no particle (where a part appeared) and which carry
-//! several (where parts merged); see [`super::Sensor::follow_parts`].
-//! Only the public `Bvh` accessors (root, children, boxes, cones) are used here.
+//! The count is a heuristic for the number of particles, and the sensor
+//! recounts whenever the shape moves under its particles, so it must cost far
+//! less than the exact method's refit of every box and cone. [`PartTree`]
+//! therefore reads a sample: the hierarchy is cut at its top-most nodes of at
+//! most `leaf_size` triangles (the coarse leaves); a coarse leaf's cone is the
+//! cone of [`SAMPLES`] of its triangles spread over it (all of them when it
+//! has no more), and the nodes above merge their children's cones as the
+//! refit does. A fit costs about `SAMPLES / leaf_size` of a refit and touches
+//! no box. A sampled cone holds a subset of the node's normals, so it is
+//! (up to the order of the pairwise merges) no wider than the refitted one:
+//! the sampled count is at most about the exact count, and a coarse leaf is
+//! always one part.
+//!
+//! [`Parts`] says which part holds each particle, and gives per part its size
+//! (triangles) and an anchor triangle, so that the sensor can see which parts
+//! carry no particle (where a part appeared) and which carry several (where
+//! parts merged); see [`super::Sensor::follow_parts`].
+//! Only the public `Bvh` accessors (root, children) are used here.
 
+use super::particle::SurfacePoint;
 use crate::bvh::Bvh;
+use crate::geom::NormalCone;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
-/// Number of convex parts of the shape `bvh` was last fitted to.
-pub fn convex_parts(bvh: &Bvh) -> usize {
-    part_nodes(bvh).len()
+/// Triangles sampled per coarse leaf. With the gated detector's leaves (8
+/// per particle at most: 63 triangles on skirt_32k, 35 on a 20k sheet) a
+/// fit reads a quarter to a half of the triangles' normals and no box. Four
+/// samples (a sixteenth) missed 351 and 706 contacts of skirt_32k's 10- and
+/// 40-frame folds, 16 none (BENCHMARKS.md, "sensor-5: quiet cost"); the count
+/// decides where particles go, and placement on a fast fold is sensitive to it.
+pub const SAMPLES: usize = 16;
+
+/// No parent (the root of the coarse tree).
+const NONE: u32 = u32::MAX;
+
+/// The top of a hierarchy, cut at nodes of at most `leaf_size` triangles, with
+/// sampled normal cones (see the module documentation). Coarse node ids:
+/// the coarse leaves first (depth-first, first child first), then the nodes
+/// above them in post-order, so every child has a smaller id than its parent
+/// and the root is the last node.
+#[derive(Debug, Clone)]
+pub struct PartTree {
+    n_leaves: usize,
+    /// Children of coarse internal node `n_leaves + i`.
+    children: Vec<[u32; 2]>,
+    /// Parent of every coarse node ([`NONE`] for the root).
+    parent: Vec<u32>,
+    /// Triangles under every coarse node.
+    size: Vec<u32>,
+    /// Sampled triangles of coarse leaf `l`: `samples[offsets[l]..offsets[l + 1]]`.
+    offsets: Vec<u32>,
+    samples: Vec<u32>,
+    /// Coarse leaf of every triangle.
+    leaf_of_triangle: Vec<u32>,
+    /// Sampled cone of every coarse node, as of the last [`PartTree::fit`].
+    cones: Vec<NormalCone>,
 }
 
-/// The part nodes of the shape `bvh` was last fitted to, in depth-first order
-/// (first child first), so the list is deterministic.
-pub fn part_nodes(bvh: &Bvh) -> Vec<u32> {
-    let mut stack = vec![bvh.root()];
-    let mut parts = Vec::new();
-    while let Some(node) = stack.pop() {
-        if bvh.is_leaf(node) || bvh.cones[node as usize].is_positive() {
-            parts.push(node);
+impl PartTree {
+    /// The coarse tree of `bvh` (built on a mesh of `bvh.n_leaves` triangles),
+    /// cut at nodes of at most `leaf_size` (>= 1) triangles.
+    pub fn new(bvh: &Bvh, leaf_size: usize) -> PartTree {
+        let leaf_size = leaf_size.max(1) as u32;
+        // Triangles under every hierarchy node (children have smaller ids).
+        let mut under = vec![1u32; bvh.n_nodes()];
+        for node in bvh.n_leaves..bvh.n_nodes() {
+            let [a, b] = bvh.children_of(node as u32);
+            under[node] = under[a as usize] + under[b as usize];
+        }
+        let coarse = |node: u32| under[node as usize] <= leaf_size;
+        // Coarse leaves in depth-first order, nodes above them in post-order.
+        let (mut leaves, mut above) = (Vec::new(), Vec::new());
+        let mut stack = vec![(bvh.root(), false)];
+        while let Some((node, expanded)) = stack.pop() {
+            if coarse(node) {
+                leaves.push(node);
+            } else if expanded {
+                above.push(node);
+            } else {
+                let [a, b] = bvh.children_of(node);
+                stack.extend([(node, true), (b, false), (a, false)]);
+            }
+        }
+        let n_leaves = leaves.len();
+        let n_coarse = n_leaves + above.len();
+        let mut id = vec![NONE; bvh.n_nodes()];
+        for (i, &node) in leaves.iter().chain(&above).enumerate() {
+            id[node as usize] = i as u32;
+        }
+        let mut tree = PartTree {
+            n_leaves,
+            children: Vec::with_capacity(above.len()),
+            parent: vec![NONE; n_coarse],
+            size: leaves
+                .iter()
+                .chain(&above)
+                .map(|&n| under[n as usize])
+                .collect(),
+            offsets: vec![0],
+            samples: Vec::new(),
+            leaf_of_triangle: vec![0; bvh.n_leaves],
+            cones: vec![NormalCone::FULL; n_coarse],
+        };
+        for (i, &node) in above.iter().enumerate() {
+            let kids = bvh.children_of(node).map(|c| id[c as usize]);
+            for k in kids {
+                tree.parent[k as usize] = (n_leaves + i) as u32;
+            }
+            tree.children.push(kids);
+        }
+        let mut tris = Vec::new();
+        for (l, &node) in leaves.iter().enumerate() {
+            tris.clear();
+            triangles_under(bvh, node, &mut tris);
+            for &t in &tris {
+                tree.leaf_of_triangle[t as usize] = l as u32;
+            }
+            tree.samples.extend(spread(&tris, SAMPLES));
+            tree.offsets.push(tree.samples.len() as u32);
+        }
+        tree
+    }
+
+    /// Number of coarse nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.parent.len()
+    }
+
+    /// Number of coarse leaves.
+    pub fn n_leaves(&self) -> usize {
+        self.n_leaves
+    }
+
+    /// Triangles sampled per fit.
+    pub fn n_samples(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Fits the sampled cones to `positions` (a shape of `mesh`) and returns
+    /// the part nodes: the top-most coarse nodes whose cone is positive, or
+    /// coarse leaves, in depth-first order (first child first).
+    pub fn fit(&mut self, mesh: &Mesh, positions: &[DVec3]) -> Vec<u32> {
+        for l in 0..self.n_leaves {
+            let range = self.offsets[l] as usize..self.offsets[l + 1] as usize;
+            self.cones[l] = self.samples[range]
+                .iter()
+                .map(|&t| {
+                    let [a, b, c] = mesh.corners(positions, t as usize);
+                    NormalCone::of_triangle(a, b, c)
+                })
+                .reduce(|x, y| x.merge(&y))
+                .unwrap_or(NormalCone::FULL);
+        }
+        for (i, [a, b]) in self.children.iter().enumerate() {
+            self.cones[self.n_leaves + i] = self.cones[*a as usize].merge(&self.cones[*b as usize]);
+        }
+        let mut stack = vec![(self.n_nodes() - 1) as u32];
+        let mut parts = Vec::new();
+        while let Some(node) = stack.pop() {
+            let i = node as usize;
+            if i < self.n_leaves || self.cones[i].is_positive() {
+                parts.push(node);
+            } else {
+                let [a, b] = self.children[i - self.n_leaves];
+                stack.extend([b, a]);
+            }
+        }
+        parts
+    }
+
+    /// The parts `nodes` (from [`PartTree::fit`] at `positions`) as seen by the
+    /// particles `points`: each particle's part, and each part's size and
+    /// anchor. The anchor is the sampled triangle whose centroid is closest to
+    /// the mean centroid of the part's samples (where a new particle goes);
+    /// ties: the lowest triangle. O(samples + particles).
+    pub fn parts(
+        &self,
+        nodes: &[u32],
+        mesh: &Mesh,
+        positions: &[DVec3],
+        points: &[SurfacePoint],
+    ) -> Parts {
+        let mut part = vec![NONE; self.n_nodes()];
+        for (p, &node) in nodes.iter().enumerate() {
+            part[node as usize] = p as u32;
+        }
+        // Top-down (parents have larger ids): a node below a part node is in that part.
+        for c in (0..self.n_nodes()).rev() {
+            let up = self.parent[c];
+            if part[c] == NONE && up != NONE {
+                part[c] = part[up as usize];
+            }
+        }
+        let centroid = |t: u32| {
+            let [a, b, c] = mesh.corners(positions, t as usize);
+            (a + b + c) / 3.0
+        };
+        let mut mean = vec![(DVec3::ZERO, 0.0); nodes.len()];
+        let leaf_parts = &part[..self.n_leaves];
+        for (l, &p) in leaf_parts.iter().enumerate() {
+            let m = &mut mean[p as usize];
+            for &t in self.leaf_samples(l) {
+                *m = (m.0 + centroid(t), m.1 + 1.0);
+            }
+        }
+        let mut best = vec![(f64::INFINITY, NONE); nodes.len()];
+        for (l, &p) in leaf_parts.iter().enumerate() {
+            let p = p as usize;
+            let centre = mean[p].0 / mean[p].1;
+            for &t in self.leaf_samples(l) {
+                let d = centroid(t).distance_squared(centre);
+                if (d, t) < best[p] {
+                    best[p] = (d, t);
+                }
+            }
+        }
+        Parts {
+            of_point: points
+                .iter()
+                .map(|p| part[self.leaf_of_triangle[p.tri as usize] as usize])
+                .collect(),
+            size: nodes.iter().map(|&n| self.size[n as usize]).collect(),
+            anchor: best.iter().map(|&(_, t)| t).collect(),
+        }
+    }
+
+    fn leaf_samples(&self, l: usize) -> &[u32] {
+        &self.samples[self.offsets[l] as usize..self.offsets[l + 1] as usize]
+    }
+}
+
+/// Appends the triangles under `node` to `out`, depth-first, first child first.
+fn triangles_under(bvh: &Bvh, node: u32, out: &mut Vec<u32>) {
+    let mut stack = vec![node];
+    while let Some(n) = stack.pop() {
+        if bvh.is_leaf(n) {
+            out.push(n);
         } else {
-            let [a, b] = bvh.children_of(node);
+            let [a, b] = bvh.children_of(n);
             stack.extend([b, a]);
         }
     }
-    parts
 }
 
-/// The convex parts of one shape: every triangle's part, and per part its
-/// size (triangles) and an anchor triangle (the one whose centroid is
-/// closest to the part's box centre: where a new particle goes).
+/// `m` items of `items` spread evenly (the middles of m equal runs), or all of
+/// them when there are no more than `m`.
+fn spread(items: &[u32], m: usize) -> Vec<u32> {
+    if items.len() <= m {
+        return items.to_vec();
+    }
+    (0..m)
+        .map(|i| items[(2 * i + 1) * items.len() / (2 * m)])
+        .collect()
+}
+
+/// The convex parts of one shape, as the sensor's particles see them.
 #[derive(Debug, Clone, Default)]
 pub struct Parts {
-    /// Part id of every triangle.
-    pub of_triangle: Vec<u32>,
+    /// Part id of every particle.
+    pub of_point: Vec<u32>,
     /// Triangles per part.
     pub size: Vec<u32>,
     /// Anchor triangle per part.
@@ -51,38 +275,6 @@ pub struct Parts {
 }
 
 impl Parts {
-    /// The parts of `positions`, which `bvh` (built on `mesh`) was last fitted to.
-    pub fn new(bvh: &Bvh, mesh: &Mesh, positions: &[DVec3]) -> Parts {
-        let nodes = part_nodes(bvh);
-        let mut parts = Parts {
-            of_triangle: vec![0; mesh.n_triangles()],
-            size: vec![0; nodes.len()],
-            anchor: vec![0; nodes.len()],
-        };
-        let mut stack = Vec::new();
-        for (p, &node) in nodes.iter().enumerate() {
-            let centre = bvh.boxes[node as usize].center();
-            let mut best = f64::INFINITY;
-            stack.push(node);
-            while let Some(n) = stack.pop() {
-                if !bvh.is_leaf(n) {
-                    stack.extend(bvh.children_of(n));
-                    continue;
-                }
-                parts.of_triangle[n as usize] = p as u32;
-                parts.size[p] += 1;
-                let [a, b, c] = mesh.corners(positions, n as usize);
-                let d = ((a + b + c) / 3.0).distance_squared(centre);
-                // Ties: the lowest triangle, whatever the traversal order.
-                if d < best || (d == best && n < parts.anchor[p]) {
-                    best = d;
-                    parts.anchor[p] = n;
-                }
-            }
-        }
-        parts
-    }
-
     /// Number of parts.
     pub fn len(&self) -> usize {
         self.size.len()
@@ -91,5 +283,95 @@ impl Parts {
     /// True when there is no part (a mesh always has one).
     pub fn is_empty(&self) -> bool {
         self.size.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::build::build;
+    use crate::scene::{grid, Deformation};
+
+    /// With coarse leaves of one triangle every triangle is sampled: the count
+    /// is the exact top-most positive nodes of the refitted hierarchy.
+    #[test]
+    fn one_triangle_leaves_count_as_the_refitted_cones() {
+        let (v, f) = grid(21, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let mut bvh = build(&mesh);
+        let mut tree = PartTree::new(&bvh, 1);
+        assert_eq!(tree.n_leaves(), mesh.n_triangles());
+        assert_eq!(tree.n_samples(), mesh.n_triangles());
+        let crumpled = Deformation::Crumple {
+            amplitude: 0.2,
+            wavelength: 0.4,
+            seed: 1,
+        }
+        .apply(mesh.rest());
+        bvh.refit(&mesh, &crumpled);
+        let mut stack = vec![bvh.root()];
+        let mut exact = 0;
+        while let Some(node) = stack.pop() {
+            if bvh.is_leaf(node) || bvh.cones[node as usize].is_positive() {
+                exact += 1;
+            } else {
+                stack.extend(bvh.children_of(node));
+            }
+        }
+        assert!(exact > 1);
+        assert_eq!(tree.fit(&mesh, &crumpled).len(), exact);
+        assert_eq!(tree.fit(&mesh, mesh.rest()).len(), 1);
+    }
+
+    /// Coarse leaves cover every triangle once and hold at most `leaf_size`;
+    /// parts label the particles and anchor inside their part.
+    #[test]
+    fn coarse_leaves_cover_the_mesh_and_parts_label_particles() {
+        let (v, f) = grid(31, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let bvh = build(&mesh);
+        let crumpled = Deformation::Crumple {
+            amplitude: 0.3,
+            wavelength: 0.4,
+            seed: 1,
+        }
+        .apply(mesh.rest());
+        for leaf_size in [2, 8, 32, 5000] {
+            let mut tree = PartTree::new(&bvh, leaf_size);
+            let leaves = &tree.size[..tree.n_leaves()];
+            assert_eq!(
+                leaves.iter().sum::<u32>() as usize,
+                mesh.n_triangles(),
+                "{leaf_size}"
+            );
+            assert!(leaves.iter().all(|&s| s as usize <= leaf_size));
+            let nodes = tree.fit(&mesh, &crumpled);
+            assert!(!nodes.is_empty());
+            let points: Vec<SurfacePoint> = (0..mesh.n_triangles() as u32)
+                .step_by(97)
+                .map(SurfacePoint::centroid)
+                .collect();
+            let parts = tree.parts(&nodes, &mesh, &crumpled, &points);
+            assert_eq!(parts.len(), nodes.len());
+            assert_eq!(parts.size.iter().sum::<u32>() as usize, mesh.n_triangles());
+            for (p, &part) in points.iter().zip(&parts.of_point) {
+                let leaf = tree.leaf_of_triangle[p.tri as usize];
+                assert!(under_node(&tree, nodes[part as usize], leaf));
+            }
+            for (part, &t) in parts.anchor.iter().enumerate() {
+                let leaf = tree.leaf_of_triangle[t as usize];
+                assert!(under_node(&tree, nodes[part], leaf));
+            }
+        }
+    }
+
+    fn under_node(tree: &PartTree, node: u32, mut c: u32) -> bool {
+        while c != node {
+            match tree.parent[c as usize] {
+                NONE => return false,
+                up => c = up,
+            }
+        }
+        true
     }
 }

@@ -3,7 +3,7 @@
 //! Candidates are four points per triangle: its centroid and the three points
 //! halfway from the centroid to each corner, so even a one-triangle mesh has
 //! room for several particles. The particles are shared among the mesh's
-//! components ([`super::components`]) by area: component c gets
+//! components ([`crate::Mesh::triangle_components`]) by area: component c gets
 //! ceil(count * area_c / area_total) (at least one, at most its candidates),
 //! so every component carries a particle and the total is at most
 //! count + components - 1. Within a component they are spread by

@@ -11,7 +11,7 @@
 //! the tolerance; the relaxation also stops as soon as it triggers.
 
 use super::forces::{forces, Local};
-use super::odl::OriginalDistance;
+use super::odl::{Located, OriginalDistance};
 use super::params::SensorParams;
 use super::particle::SurfacePoint;
 use super::parts::Parts;
@@ -38,7 +38,11 @@ pub struct Sensor {
     odl: OriginalDistance,
     unit: f64,
     margin: f64,
+    /// Pair terms one frame's relaxation may spend, if bounded (see [`Sensor::set_pair_budget`]).
+    pair_budget: Option<usize>,
     locals: Vec<Local>,
+    /// The particles' rest points ([`OriginalDistance::locate`]), per update.
+    located: Vec<Located>,
     forces: Vec<DVec3>,
     /// Per particle step control (see [`Sensor::update`]); persistent across frames.
     damping: Vec<Damping>,
@@ -187,14 +191,17 @@ impl Sensor {
             odl,
             unit,
             margin: 0.0,
+            pair_budget: None,
             locals: Vec::new(),
+            located: Vec::new(),
             forces: Vec::new(),
             damping: Vec::new(),
         })
     }
 
-    /// Follows the convex parts `parts` of the current shape (paper 2.1) with
-    /// persistent particles, towards `target` particles:
+    /// Follows the convex parts `parts` of the current shape (paper 2.1; seen
+    /// by these particles, in their order) with persistent particles, towards
+    /// `target` particles:
     ///
     /// - merge: while there are more particles than `target`, a particle whose
     ///   part already holds an earlier particle is removed (merged into that
@@ -214,11 +221,8 @@ impl Sensor {
         let excess = self.points.len().saturating_sub(target);
         let mut held = vec![false; parts.len()];
         let (mut keep, mut removed) = (Vec::with_capacity(self.points.len()), 0);
-        for p in &self.points {
-            let (part, c) = (
-                parts.of_triangle[p.tri as usize] as usize,
-                comp[p.tri as usize] as usize,
-            );
+        for (p, &part) in self.points.iter().zip(&parts.of_point) {
+            let (part, c) = (part as usize, comp[p.tri as usize] as usize);
             let merge = held[part] && removed < excess && per_comp[c] > 1;
             removed += merge as usize;
             per_comp[c] -= merge as usize;
@@ -252,6 +256,24 @@ impl Sensor {
         self.margin = length.max(0.0) / self.unit;
         self.odl
             .set_reach(2.0 * self.trigger_distance() / (1.0 - FOLD_T));
+    }
+
+    /// Bounds the updates of one frame to `pairs` pair terms: with k
+    /// particles, an update costs k^2 of them (forces and the closest pair),
+    /// so a frame makes at most pairs / k^2 updates (at least one, at most
+    /// N_max). The gated detector sets this to a share of the mesh's size, so
+    /// that many particles (a shape of many parts) cost a bounded share of the
+    /// exact method; without it, a frame makes up to N_max updates.
+    pub fn set_pair_budget(&mut self, pairs: usize) {
+        self.pair_budget = Some(pairs);
+    }
+
+    /// The most updates of one frame: N_max, or fewer under the pair budget.
+    pub fn max_updates(&self) -> u32 {
+        let k = self.points.len().max(1);
+        let n_max = self.params.n_max;
+        self.pair_budget
+            .map_or(n_max, |b| (b / (k * k)).clamp(1, n_max as usize) as u32)
     }
 
     /// The trigger distance: tolerance + margin (mean-edge units).
@@ -301,13 +323,13 @@ impl Sensor {
     /// from where they are on the next frame. On a shape with contacts at rest
     /// (a garment on a body) every frame triggers and makes one update.
     pub(crate) fn relax_checked(&mut self, positions: &[DVec3]) -> Relaxation {
-        let mut steps = 0;
+        let (mut steps, most) = (0, self.max_updates());
         loop {
             let moving = self.step(positions);
             steps += 1;
             let closest = self.closest_in_frame();
             let triggered = closest.folded && closest.sl < self.trigger_distance();
-            if triggered || moving < self.params.n_min || steps >= self.params.n_max {
+            if triggered || moving < self.params.n_min || steps >= most {
                 return Relaxation {
                     steps,
                     moving,
@@ -354,9 +376,10 @@ impl Sensor {
                 .map(|p| Local::new(mesh, positions, p, unit)),
         );
         self.odl.refresh(&self.points);
+        self.odl.locate(&self.points, &mut self.located);
         forces(
             &self.locals,
-            &self.points,
+            (&self.points, &self.located),
             &self.odl,
             self.params.a,
             self.params.b,
@@ -378,6 +401,7 @@ impl Sensor {
             *p = walk::step(mesh, &l.map, *p, step * unit);
         }
         self.load_corners(raw);
+        self.odl.locate(&self.points, &mut self.located);
         let mesh = &*self.norm;
         let mut moving = 0;
         for ((p, l), dmp) in self.points.iter().zip(&self.locals).zip(&mut self.damping) {
@@ -394,10 +418,12 @@ impl Sensor {
     /// (then it does not trigger). First such pair on ties.
     pub fn closest(&mut self, positions: &[DVec3]) -> ClosestPair {
         self.load_corners(positions);
+        self.odl.locate(&self.points, &mut self.located);
         self.closest_in_frame()
     }
 
-    /// [`Sensor::closest`] at the positions in the buffer.
+    /// [`Sensor::closest`] at the positions in the buffer, with the particles
+    /// located ([`OriginalDistance::locate`]) where they are.
     fn closest_in_frame(&self) -> ClosestPair {
         let unit = self.norm.mean_edge_length();
         let cur: Vec<DVec3> = self
@@ -415,7 +441,11 @@ impl Sensor {
         for i in 0..cur.len() {
             for j in i + 1..cur.len() {
                 let sl = cur[i].distance(cur[j]) / unit;
-                let path = self.odl.path(&self.points, i, j);
+                let path = self.odl.path_between(
+                    (&self.points[i], &self.located[i]),
+                    (&self.points[j], &self.located[j]),
+                    j,
+                );
                 let odl = path.length;
                 let folded = !(sl > (1.0 - FOLD_T) * path.lower);
                 if (folded, -sl) > (best.folded, -best.sl) {
