@@ -25,9 +25,21 @@
 //! so the damped sweep contracts in the energy norm. That makes it a valid
 //! conjugate-gradient preconditioner, with or without the constraint filter.
 //!
+//! Precision. The cycle runs in single precision on a copy of each level whose
+//! rows' blocks lie contiguously (`Compact`, refreshed by [`Multigrid::update`]): it reads
+//! 60% of the bytes of the double-precision link form, in order, and uses
+//! SIMD 3x3 products. A preconditioner only has to be close to `A^-1`; the conjugate
+//! gradients around it stay in double precision. Rounding makes the cycle
+//! symmetric to about 1e-7 relative, far below the solve's tolerance.
+//!
 //! Every kernel is per row over fixed chunks ([`for_chunks`]), and the
 //! aggregation is sequential, so the result has the same bits for any number
 //! of threads.
+//!
+//! Measured on the centre scene (BENCHMARKS.md, "solve-5: preconditioner"):
+//! 63 -> 22 iterations at 41 x 41 vertices, 103 -> 23 at 101 x 101. The
+//! piecewise-constant coarse spaces bound it: a W-cycle, or three smoothing
+//! sweeps, still needs about 21 at 101 x 101.
 
 use super::matrix::{for_chunks, LinkMatrix};
 use glam::{DMat3, DVec3, Mat3A, Vec3, Vec3A};
@@ -209,44 +221,32 @@ fn match_pairs(a: &LinkMatrix) -> (Vec<u32>, usize) {
                 }
             });
         of[i] = count;
-        if let (Some((w, j)), true) = (best, top > 0.0) {
-            if w > 0.0 {
-                of[j as usize] = count;
-            }
+        if let Some((_, j)) = best.filter(|&(w, _)| w > 0.0) {
+            of[j as usize] = count;
         }
         count += 1;
     }
     (of, count as usize)
 }
 
-/// A 3x3 block in single precision, columns SIMD-aligned.
-#[derive(Debug, Clone, Copy, Default)]
-struct Sym(Mat3A);
-
-impl Sym {
-    /// `m` rounded to single precision.
-    fn new(m: &DMat3) -> Sym {
-        Sym(m.as_mat3().into())
-    }
-
-    #[inline]
-    fn mul(&self, v: Vec3A) -> Vec3A {
-        self.0 * v
-    }
+/// `m` rounded to single precision (SIMD columns).
+fn single(m: DMat3) -> Mat3A {
+    m.as_mat3().into()
 }
 
 /// One level's matrix in single precision with each row's blocks stored
-/// contiguously: the cycle reads a third of the link form's bytes, in order.
+/// contiguously: the cycle reads 48 bytes per entry, in row order, where the
+/// double-precision link form reads 80 in link order.
 #[derive(Debug, Clone, Default)]
 struct Compact {
-    diag: Vec<Sym>,
+    diag: Vec<Mat3A>,
     /// `D^-1`, scaled by the Jacobi damping.
-    smoother: Vec<Sym>,
+    smoother: Vec<Mat3A>,
     start: Vec<u32>,
     cols: Vec<u32>,
     /// The link of each off-diagonal entry (its block is minus the link's).
     links: Vec<u32>,
-    blocks: Vec<Sym>,
+    blocks: Vec<Mat3A>,
 }
 
 impl Compact {
@@ -262,10 +262,10 @@ impl Compact {
             start.push(cols.len() as u32);
         }
         Compact {
-            diag: vec![Sym::default(); a.rows()],
-            smoother: vec![Sym::default(); a.rows()],
+            diag: vec![Mat3A::ZERO; a.rows()],
+            smoother: vec![Mat3A::ZERO; a.rows()],
             start,
-            blocks: vec![Sym::default(); cols.len()],
+            blocks: vec![Mat3A::ZERO; cols.len()],
             cols,
             links,
         }
@@ -276,19 +276,19 @@ impl Compact {
         let links = &self.links;
         for_chunks(&mut self.blocks, |start, out| {
             for (k, b) in out.iter_mut().enumerate() {
-                *b = Sym::new(&-a.link[links[start + k] as usize]);
+                *b = single(-a.link[links[start + k] as usize]);
             }
             0.0
         });
         for_chunks(&mut self.diag, |start, out| {
             for (k, d) in out.iter_mut().enumerate() {
-                *d = Sym::new(&a.diag[start + k]);
+                *d = single(a.diag[start + k]);
             }
             0.0
         });
         for_chunks(&mut self.smoother, |start, out| {
             for (k, d) in out.iter_mut().enumerate() {
-                *d = Sym::new(&(a.diag[start + k].inverse() * OMEGA));
+                *d = single(a.diag[start + k].inverse() * OMEGA);
             }
             0.0
         });
@@ -299,16 +299,14 @@ impl Compact {
     fn row_mul(&self, i: usize, x: &[Vec3A]) -> Vec3A {
         let (lo, hi) = (self.start[i] as usize, self.start[i + 1] as usize);
         let off = self.cols[lo..hi].iter().zip(&self.blocks[lo..hi]);
-        off.fold(self.diag[i].mul(x[i]), |y, (&j, b)| {
-            y + b.mul(x[j as usize])
-        })
+        off.fold(self.diag[i] * x[i], |y, (&j, b)| y + *b * x[j as usize])
     }
 
     /// `z = w D^-1 r`: one Jacobi sweep from zero.
     fn pre_smooth(&self, r: &[Vec3A], z: &mut [Vec3A]) {
         for_chunks(z, |start, out| {
             for (k, zi) in out.iter_mut().enumerate() {
-                *zi = self.smoother[start + k].mul(r[start + k]);
+                *zi = self.smoother[start + k] * r[start + k];
             }
             0.0
         });
@@ -330,7 +328,7 @@ impl Compact {
         for_chunks(tmp, |start, out| {
             for (k, ti) in out.iter_mut().enumerate() {
                 let i = start + k;
-                *ti = zr[i] + self.smoother[i].mul(r[i] - self.row_mul(i, zr));
+                *ti = zr[i] + self.smoother[i] * (r[i] - self.row_mul(i, zr));
             }
             0.0
         });

@@ -214,6 +214,51 @@ pub fn for_chunks2<A: Send, B: Send>(
     }
 }
 
+/// `s = P^-1 r` (multigrid when given, else block Jacobi with `pinv`); returns `r . s`.
+fn precondition(mg: Option<&mut Multigrid>, pinv: &[DMat3], r: &[DVec3], s: &mut [DVec3]) -> f64 {
+    match mg {
+        Some(m) => m.apply(r, s),
+        None => {
+            for_chunks(s, |start, out| {
+                for (k, si) in out.iter_mut().enumerate() {
+                    *si = pinv[start + k] * r[start + k];
+                }
+                0.0
+            });
+        }
+    }
+    dot(r, s)
+}
+
+/// Runs `f(start, a, b, c)` over matching fixed chunks of three slices and
+/// returns the sum of its partials, added in chunk order (parallel when long).
+fn for_chunks3(
+    a: &mut [DVec3],
+    b: &mut [DVec3],
+    c: &mut [DVec3],
+    f: impl Fn(usize, &mut [DVec3], &mut [DVec3], &mut [DVec3]) -> f64 + Sync,
+) -> f64 {
+    if a.len() < PAR_MIN {
+        let it = a
+            .chunks_mut(CHUNK)
+            .zip(b.chunks_mut(CHUNK))
+            .zip(c.chunks_mut(CHUNK));
+        return it
+            .enumerate()
+            .map(|(k, ((x, y), z))| f(k * CHUNK, x, y, z))
+            .sum();
+    }
+    let it = a
+        .par_chunks_mut(CHUNK)
+        .zip(b.par_chunks_mut(CHUNK))
+        .zip(c.par_chunks_mut(CHUNK));
+    let partials: Vec<f64> = it
+        .enumerate()
+        .map(|(k, ((x, y), z))| f(k * CHUNK, x, y, z))
+        .collect();
+    partials.into_iter().sum()
+}
+
 /// The preconditioner `P` of the conjugate gradients (applied as `c = S P^-1 r`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Preconditioner {
@@ -303,21 +348,6 @@ impl Pcg {
             }),
         };
         let pinv = &self.pinv;
-        // s = P^-1 r (in place of the Jacobi product when multigrid is on).
-        let mut precondition = |r: &[DVec3], s: &mut [DVec3]| -> f64 {
-            match mg.as_mut() {
-                Some(m) => m.apply(r, s),
-                None => {
-                    for_chunks(s, |start, out| {
-                        for (k, si) in out.iter_mut().enumerate() {
-                            *si = pinv[start + k] * r[start + k];
-                        }
-                        0.0
-                    });
-                }
-            }
-            dot(r, s)
-        };
         let dv_ro: &[DVec3] = dv;
         // r = S (b - A dv), and the reference (S b).P^-1 (S b), with S b in q.
         for_chunks2(&mut self.r, &mut self.q, |start, r, sb| {
@@ -327,8 +357,8 @@ impl Pcg {
                 sb[k] = filter.apply(i, b[i]);
             }
         });
-        let delta_b = precondition(&self.q, &mut self.c);
-        let delta = precondition(&self.r, &mut self.s);
+        let delta_b = precondition(mg.as_mut(), pinv, &self.q, &mut self.c);
+        let delta = precondition(mg.as_mut(), pinv, &self.r, &mut self.s);
         let s = &self.s;
         for_chunks(&mut self.c, |start, c| {
             for (k, ci) in c.iter_mut().enumerate() {
@@ -355,14 +385,24 @@ impl Pcg {
                 break;
             }
             let alpha = delta / cq;
-            let (c, q) = (&self.c, &self.q);
-            for_chunks2(dv, &mut self.r, |start, x, r| {
+            let (c, q, jacobi) = (&self.c, &self.q, mg.is_none());
+            // With block Jacobi, s = P^-1 r and r.s in the same pass.
+            let mut next = for_chunks3(dv, &mut self.r, &mut self.s, |start, x, r, s| {
+                let mut part = 0.0;
                 for k in 0..x.len() {
-                    x[k] += c[start + k] * alpha;
-                    r[k] -= q[start + k] * alpha;
+                    let i = start + k;
+                    x[k] += c[i] * alpha;
+                    r[k] -= q[i] * alpha;
+                    if jacobi {
+                        s[k] = pinv[i] * r[k];
+                        part += r[k].dot(s[k]);
+                    }
                 }
+                part
             });
-            let next = precondition(&self.r, &mut self.s);
+            if !jacobi {
+                next = precondition(mg.as_mut(), pinv, &self.r, &mut self.s);
+            }
             let beta = next / delta;
             delta = next;
             let s = &self.s;
