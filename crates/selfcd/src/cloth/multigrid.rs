@@ -271,24 +271,24 @@ impl Compact {
         }
     }
 
-    /// Copies `a`'s values, and computes the damped inverse diagonal.
-    fn fill(&mut self, a: &LinkMatrix) {
+    /// Copies `a / scale`'s values, and computes the damped inverse diagonal.
+    fn fill(&mut self, a: &LinkMatrix, scale: f64) {
         let links = &self.links;
         for_chunks(&mut self.blocks, |start, out| {
             for (k, b) in out.iter_mut().enumerate() {
-                *b = single(-a.link[links[start + k] as usize]);
+                *b = single(-a.link[links[start + k] as usize] / scale);
             }
             0.0
         });
         for_chunks(&mut self.diag, |start, out| {
             for (k, d) in out.iter_mut().enumerate() {
-                *d = single(a.diag[start + k]);
+                *d = single(a.diag[start + k] / scale);
             }
             0.0
         });
         for_chunks(&mut self.smoother, |start, out| {
             for (k, d) in out.iter_mut().enumerate() {
-                *d = single(a.diag[start + k].inverse() * OMEGA);
+                *d = single(a.diag[start + k].inverse() * (scale * OMEGA));
             }
             0.0
         });
@@ -368,6 +368,9 @@ struct Level {
 #[derive(Debug, Clone)]
 pub struct Multigrid {
     links: usize,
+    /// The levels hold `A / scale` (a power of two near `A`'s largest
+    /// diagonal entry), so single precision holds them at any mesh scale.
+    scale: f64,
     /// The finest level's matrix and vectors.
     fine: Compact,
     work: Work,
@@ -407,6 +410,7 @@ impl Multigrid {
         }
         let mut mg = Multigrid {
             links: a.link.len(),
+            scale: 1.0,
             fine: Compact::new(a),
             work: Work::new(a.rows()),
             levels,
@@ -435,30 +439,40 @@ impl Multigrid {
 
     /// Recomputes every level's matrix and the dense factor from `a` (same links).
     pub fn update(&mut self, a: &LinkMatrix) {
-        self.fine.fill(a);
+        let largest = a
+            .diag
+            .iter()
+            .map(|d| d.x_axis.x.max(d.y_axis.y).max(d.z_axis.z));
+        self.scale = power_of_two(largest.fold(0.0, f64::max));
+        let scale = self.scale;
+        self.fine.fill(a, scale);
         for k in 0..self.levels.len() {
             let (done, rest) = self.levels.split_at_mut(k);
             let fine = done.last().map_or(a, |l| &l.a);
             let level = &mut rest[0];
             level.coarsening.galerkin(fine, &mut level.a);
-            level.compact.fill(&level.a);
+            level.compact.fill(&level.a, scale);
         }
         let coarsest = self.levels.last().map_or(a, |l| &l.a);
         self.dense = (coarsest.rows() <= DENSE_MAX)
-            .then(|| cholesky(coarsest))
+            .then(|| cholesky(coarsest, scale))
             .flatten();
     }
 
     /// `z = B r`: one V-cycle, in single precision.
+    /// The cycle is linear, so it runs on `r / rho` (rho a power of two near
+    /// `r`'s largest entry) and the result is scaled back.
     pub fn apply(&mut self, r: &[DVec3], z: &mut [DVec3]) {
+        let rho = power_of_two(r.iter().fold(0.0, |m, v| m.max(v.abs().max_element())));
         let w = &mut self.work;
         for (f, d) in w.rhs.iter_mut().zip(r) {
-            *f = d.as_vec3().into();
+            *f = (*d / rho).as_vec3().into();
         }
         let fine = Grid { m: &self.fine, w };
         cycle(fine, &mut self.levels, self.dense.as_deref());
+        let back = rho / self.scale;
         for (d, f) in z.iter_mut().zip(&self.work.sol) {
-            *d = Vec3::from(*f).as_dvec3();
+            *d = Vec3::from(*f).as_dvec3() * back;
         }
     }
 }
@@ -498,9 +512,19 @@ fn cycle(g: Grid, coarser: &mut [Level], dense: Option<&[f64]>) {
     m.sweep(&w.rhs, &mut w.sol, &mut w.tmp);
 }
 
-/// Dense lower Cholesky factor of `a` (row-major, `3n x 3n`), or `None` when
-/// `a` is not numerically positive definite.
-fn cholesky(a: &LinkMatrix) -> Option<Vec<f64>> {
+/// The power of two nearest `x` (in log scale); 1 for zero or non-finite `x`.
+fn power_of_two(x: f64) -> f64 {
+    let p = x.log2().round().exp2();
+    if p.is_normal() {
+        p
+    } else {
+        1.0
+    }
+}
+
+/// Dense lower Cholesky factor of `a / scale` (row-major, `3n x 3n`), or
+/// `None` when it is not numerically positive definite.
+fn cholesky(a: &LinkMatrix, scale: f64) -> Option<Vec<f64>> {
     let n = 3 * a.rows();
     let mut m = vec![0.0; n * n];
     for i in 0..a.rows() {
@@ -511,9 +535,9 @@ fn cholesky(a: &LinkMatrix) -> Option<Vec<f64>> {
                 }
             }
         };
-        put(i, &a.diag[i], 1.0);
+        put(i, &a.diag[i], 1.0 / scale);
         for &(s, j) in a.row(i) {
-            put(j as usize, &a.link[s as usize], -1.0);
+            put(j as usize, &a.link[s as usize], -1.0 / scale);
         }
     }
     for j in 0..n {
@@ -630,6 +654,26 @@ mod tests {
         a.mul(&next, &mut an);
         let ratio = (dot(&next, &an) / dot(&e, &ae)).sqrt();
         assert!(ratio < 0.9, "energy-norm contraction {ratio}");
+    }
+
+    #[test]
+    fn works_at_any_scale() {
+        // Scaling A by 2^k and r by 2^j scales B r by 2^(j - k), bit for bit,
+        // far outside single precision's range.
+        let a = spring_grid(20, 9);
+        let r = random_vector(a.rows(), 10);
+        let reference = apply(&mut Multigrid::new(&a), &r);
+        for (ka, kr) in [(-200, 300), (150, -250), (0, -140)] {
+            let (sa, sr) = (2f64.powi(ka), 2f64.powi(kr));
+            let mut b = a.clone();
+            b.diag.iter_mut().for_each(|d| *d *= sa);
+            b.link.iter_mut().for_each(|l| *l *= sa);
+            let rs: Vec<DVec3> = r.iter().map(|v| *v * sr).collect();
+            let z = apply(&mut Multigrid::new(&b), &rs);
+            for (x, y) in z.iter().zip(&reference) {
+                assert_eq!(*x, *y * (sr / sa), "scale 2^{ka}, rhs 2^{kr}");
+            }
+        }
     }
 
     #[test]
