@@ -6,8 +6,10 @@
 //! scene: two-corners | corner | center (default center); n: vertices per side
 //! (default 11); steps: timed steps (default 600); method: detection method
 //! (default bvh-cones-contour); warmup: steps run before timing (default 0).
+//! `CLOTH_PRECONDITIONER=block-jacobi` solves with the block-Jacobi
+//! preconditioner instead of the default multigrid.
 
-use selfcd::cloth::PaperScene;
+use selfcd::cloth::{Material, PaperScene, Preconditioner, SimOptions, Simulation};
 use selfcd::detect::Method;
 use std::process::ExitCode;
 
@@ -45,7 +47,16 @@ fn run() -> Result<(), String> {
         .map_err(|e| format!("{e}"))?
         .unwrap_or(Method::BvhConesContour);
     let warmup: usize = arg(&args, 4, 0)?;
-    let mut sim = scene.simulation(n, method).map_err(|e| e.to_string())?;
+    let cloth = scene
+        .cloth(n, Material::default())
+        .map_err(|e| e.to_string())?;
+    let mut opts = SimOptions::for_cloth(&cloth);
+    opts.pcg.preconditioner = match std::env::var("CLOTH_PRECONDITIONER").as_deref() {
+        Ok("block-jacobi") => Preconditioner::BlockJacobi,
+        Ok("multigrid") | Err(_) => Preconditioner::Multigrid,
+        Ok(other) => return Err(format!("unknown preconditioner {other:?}")),
+    };
+    let mut sim = Simulation::new(cloth, method, opts).map_err(|e| e.to_string())?;
     let tris = sim.cloth().mesh().n_triangles();
     for _ in 0..warmup {
         sim.step().map_err(|e| e.to_string())?;
@@ -82,8 +93,9 @@ fn run() -> Result<(), String> {
     let s = steps.max(1) as f64;
     let ms = |x: f64| x / s * 1e3;
     println!(
-        "scene {scene} n {n} ({tris} triangles) method {method} threads {} steps {steps} (after {warmup} warm-up)",
-        rayon::current_num_threads()
+        "scene {scene} n {n} ({tris} triangles) method {method} threads {} steps {steps} (after {warmup} warm-up) preconditioner {:?}",
+        rayon::current_num_threads(),
+        opts.pcg.preconditioner
     );
     println!(
         "mean step {:.3} ms ({:.1} steps/s): solve {:.3} ms, detection {:.3} ms, response {:.3} ms; worst step {:.3} ms",

@@ -27,6 +27,8 @@ pub struct LinkMatrix {
     /// in link order.
     row_start: Vec<u32>,
     row_links: Vec<(u32, u32)>,
+    /// The two rows of each link.
+    ends: Vec<[u32; 2]>,
 }
 
 impl LinkMatrix {
@@ -53,12 +55,18 @@ impl LinkMatrix {
             link: vec![DMat3::ZERO; ends.len()],
             row_start,
             row_links,
+            ends: ends.to_vec(),
         }
     }
 
     /// Number of block rows.
     pub fn rows(&self) -> usize {
         self.diag.len()
+    }
+
+    /// The two rows of each link.
+    pub fn ends(&self) -> &[[u32; 2]] {
+        &self.ends
     }
 
     /// The (link, other vertex) pairs of row `i`.
@@ -152,5 +160,67 @@ mod tests {
         assert_eq!(y[1], y1);
         assert_eq!(y[0], a.diag[0] * x[0] - a.link[0] * x[1]);
         assert_eq!(dot(&x, &x), 14.0 + 2.0 + 0.75);
+    }
+}
+
+/// Test matrices shaped like the cloth's.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::LinkMatrix;
+    use crate::cloth::springs::outer;
+    use glam::{DMat3, DVec3};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// An `n x n` grid of vertices linked along rows, columns and both
+    /// diagonals, each link a positive semi-definite block `k u u^T + c I`
+    /// with `u` near the link's direction (a random tilt out of the plane) and
+    /// random `k`, `c`; `D_i = m I + sum of its links`: a mass matrix plus
+    /// springs, so symmetric positive definite like the cloth's.
+    pub fn spring_grid(n: usize, seed: u64) -> LinkMatrix {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let id = |x: usize, y: usize| (y * n + x) as u32;
+        let mut ends = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                if x + 1 < n {
+                    ends.push([id(x, y), id(x + 1, y)]);
+                }
+                if y + 1 < n {
+                    ends.push([id(x, y), id(x, y + 1)]);
+                }
+                if x + 1 < n && y + 1 < n {
+                    ends.push([id(x, y), id(x + 1, y + 1)]);
+                    ends.push([id(x + 1, y), id(x, y + 1)]);
+                }
+            }
+        }
+        let mut a = LinkMatrix::new(n * n, &ends);
+        let at = |v: u32| DVec3::new((v as usize % n) as f64, (v as usize / n) as f64, 0.0);
+        for (b, e) in a.link.iter_mut().zip(&ends) {
+            let tilt = DVec3::new(0.0, 0.0, rng.gen_range(-0.3..0.3));
+            let u = (at(e[1]) - at(e[0]) + tilt).normalize();
+            *b = outer(u) * rng.gen_range(50.0..100.0)
+                + DMat3::from_diagonal(DVec3::splat(rng.gen_range(0.0..1.0)));
+        }
+        for i in 0..n * n {
+            let springs = a.row(i).iter().map(|&(s, _)| a.link[s as usize]);
+            a.diag[i] = springs.fold(DMat3::from_diagonal(DVec3::splat(0.01)), |d, b| d + b);
+        }
+        a
+    }
+
+    /// A random vector of `n` entries in [-1, 1]^3.
+    pub fn random_vector(n: usize, seed: u64) -> Vec<DVec3> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .map(|_| {
+                DVec3::new(
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                )
+            })
+            .collect()
     }
 }

@@ -4,6 +4,7 @@
 //! - [`springs`]: stretch, shear and bend springs; force and PSD Jacobian of one spring.
 //! - [`model`]: [`Cloth`] (masses from rest areas, gravity, pins) and [`Material`].
 //! - [`matrix`]: the flat sparse 3x3-block matrix and deterministic parallel kernels.
+//! - [`multigrid`]: the aggregation multigrid preconditioner of the solve.
 //! - [`solver`]: backward Euler system and the filtered PCG (Baraff & Witkin 1998).
 //! - [`response`]: self-contact in the solve, impulses, continuous collisions, and the end-of-step correction.
 //! - [`sim`]: [`Simulation`], stepping a cloth with a detector.
@@ -11,6 +12,7 @@
 
 pub mod matrix;
 pub mod model;
+pub mod multigrid;
 pub mod obstacle;
 pub mod response;
 pub mod scenes;
@@ -22,4 +24,4 @@ pub use model::{Cloth, Energy, Material};
 pub use response::ContactParams;
 pub use scenes::PaperScene;
 pub use sim::{SimOptions, Simulation, StepStats};
-pub use solver::PcgOptions;
+pub use solver::{PcgOptions, Preconditioner};
