@@ -337,6 +337,89 @@ fn filter_map_ordered<U: Send>(n: usize, f: impl Fn(usize) -> Option<U> + Sync +
     }
 }
 
+/// The last continuous query and its answer. A query repeated from the same
+/// start with the same thickness (the continuous stage's rounds, after
+/// impulses changed a few velocities) re-tests only the triangle pairs that
+/// touch a vertex whose end position changed (see [`SelfQueries::continuous`]).
+#[derive(Debug, Clone, Default)]
+struct Sweep {
+    x0: Vec<DVec3>,
+    x1: Vec<DVec3>,
+    thickness: f64,
+    found: Vec<Impact>,
+}
+
+/// A repeated continuous query re-tests the changed vertices' triangles only
+/// while at most this fraction of the vertices changed; past it a whole query
+/// costs about as much.
+const REPEAT_SHARE: f64 = 0.25;
+
+/// Below this many touched triangles a repeated query runs on one thread.
+const REPEAT_PAR_MIN: usize = 64;
+
+/// Bitwise equality of two positions (`==` would take -0.0 for 0.0).
+#[inline]
+fn same_bits(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+}
+
+impl Sweep {
+    /// The vertices whose end position differs from the last query's, when
+    /// the query repeats it (same start, same thickness) and few moved.
+    fn changed(&self, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Option<Vec<u32>> {
+        if self.x0.len() != x0.len() || self.thickness.to_bits() != thickness.to_bits() {
+            return None;
+        }
+        if !self.x0.iter().zip(x0).all(|(a, b)| same_bits(*a, *b)) {
+            return None;
+        }
+        let limit = (REPEAT_SHARE * x1.len() as f64) as usize;
+        let mut changed = Vec::new();
+        for (i, (a, b)) in self.x1.iter().zip(x1).enumerate() {
+            if !same_bits(*a, *b) {
+                if changed.len() == limit {
+                    return None;
+                }
+                changed.push(i as u32);
+            }
+        }
+        Some(changed)
+    }
+
+    /// Keeps `found` as the answer of the query `x0 -> x1` within `thickness`.
+    fn record(&mut self, x0: &[DVec3], x1: &[DVec3], thickness: f64, found: &Impacts) {
+        self.x0.clear();
+        self.x0.extend_from_slice(x0);
+        self.x1.clear();
+        self.x1.extend_from_slice(x1);
+        self.thickness = thickness;
+        self.found.clear();
+        self.found
+            .extend(found.vertex_triangle.iter().chain(&found.edge_edge));
+    }
+}
+
+/// The leaves whose boxes are within `gap` of leaf `a`'s, by a descent of
+/// the hierarchy from the root: exactly the leaves the self-traversal pairs
+/// with `a` (it reaches every leaf pair whose boxes are within `gap`, since
+/// a node's box holds its leaves').
+fn leaves_near(bvh: &Bvh, a: u32, gap: f64, mut f: impl FnMut(u32)) {
+    let query = bvh.boxes[a as usize];
+    let mut stack = vec![bvh.root()];
+    while let Some(n) = stack.pop() {
+        if !bvh.boxes[n as usize].within(&query, gap) {
+            continue;
+        }
+        if bvh.is_leaf(n) {
+            if n != a {
+                f(n);
+            }
+        } else {
+            stack.extend(bvh.children_of(n));
+        }
+    }
+}
+
 /// The self queries of one mesh over a sequence of frames: one hierarchy and
 /// one candidate set (see the module doc).
 pub struct SelfQueries {
@@ -347,6 +430,8 @@ pub struct SelfQueries {
     motion: Motion,
     /// The last reuse query's fresh part cost a good share of a rebuild.
     stale: bool,
+    /// The last continuous query, for repeats.
+    sweep: Sweep,
     skin: f64,
     max_contacts: usize,
 }
@@ -368,6 +453,7 @@ impl SelfQueries {
             candidates: Candidates::default(),
             motion: Motion::default(),
             stale: false,
+            sweep: Sweep::default(),
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
         })
@@ -574,9 +660,12 @@ impl SelfQueries {
     /// Every element pair that may come within `thickness` (>= 0) while the
     /// mesh moves linearly from `x0` to `x1`: equal to
     /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
-    /// From the candidate set and the swept traversal of what it does not
-    /// cover (module doc); rebuilds the set at `x0` when it is stale or does
-    /// not reach `thickness`. Adds its work to `s`.
+    /// A query repeating the last one (same `x0` and `thickness`) with few end
+    /// positions changed re-tests only the triangle pairs touching them
+    /// ([`repeat_continuous`](Self::repeat_continuous)); otherwise the answer
+    /// comes from the candidate set and the swept traversal of what it does
+    /// not cover (module doc), rebuilding the set at `x0` when it is stale or
+    /// does not reach `thickness`. Adds its work to `s`.
     pub fn continuous(
         &mut self,
         x0: &[DVec3],
@@ -584,8 +673,25 @@ impl SelfQueries {
         thickness: f64,
         s: &mut FrameStats,
     ) -> Result<Impacts> {
+        check_args(&self.mesh, x0, x1, thickness)?;
+        let found = match self.sweep.changed(x0, x1, thickness) {
+            Some(changed) => self.repeat_continuous(x0, x1, thickness, &changed, s),
+            None => self.fresh_continuous(x0, x1, thickness, s)?,
+        };
+        self.sweep.record(x0, x1, thickness, &found);
+        Ok(found)
+    }
+
+    /// The continuous query from the candidate set and the swept traversal of
+    /// what it does not cover.
+    fn fresh_continuous(
+        &mut self,
+        x0: &[DVec3],
+        x1: &[DVec3],
+        thickness: f64,
+        s: &mut FrameStats,
+    ) -> Result<Impacts> {
         let mesh = self.mesh.clone();
-        check_args(&mesh, x0, x1, thickness)?;
         let allowance = self.prepare(&[x0, x1], thickness, s)?;
         let t0 = Instant::now();
         if !self.all_covered(allowance) {
@@ -606,6 +712,79 @@ impl SelfQueries {
         s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();
         Ok(Impacts::from_items(found))
+    }
+
+    /// The last continuous query repeated with the end positions of the
+    /// `changed` vertices moved. The answer for an element pair reads only
+    /// the positions of its two visiting triangles (the swept box test of
+    /// those triangles, then the time of impact of the pair's stencil, whose
+    /// vertices lie on them), so the last answer's pairs whose visiting
+    /// triangles touch no changed vertex stay as they were, and the triangle
+    /// pairs that do touch one are tested as the swept traversal tests them:
+    /// every leaf within `thickness` of a touched triangle's swept box, found
+    /// by a descent of the hierarchy fitted to the new sweep.
+    fn repeat_continuous(
+        &mut self,
+        x0: &[DVec3],
+        x1: &[DVec3],
+        thickness: f64,
+        changed: &[u32],
+        s: &mut FrameStats,
+    ) -> Impacts {
+        let t0 = Instant::now();
+        let mesh = self.mesh.clone();
+        let mut touched = vec![false; mesh.n_triangles()];
+        for &v in changed {
+            for &t in mesh.topology().vertex_tris.row(v as usize) {
+                touched[t as usize] = true;
+            }
+        }
+        let tris: Vec<u32> = (0..mesh.n_triangles() as u32)
+            .filter(|&t| touched[t as usize])
+            .collect();
+        self.bvh.refit_swept(&mesh, x0, x1);
+        self.fit.fitted = false;
+        let t1 = Instant::now();
+        s.refit_time += (t1 - t0).as_secs_f64();
+        let bvh = &self.bvh;
+        let retest = |&a: &u32| {
+            let (mut out, mut tests) = (Vec::new(), 0u64);
+            leaves_near(bvh, a, thickness, |b| {
+                if touched[b as usize] && b < a {
+                    return; // tested from b
+                }
+                tests += 1;
+                for_each_owned_pair(&mesh, a.min(b), a.max(b), |p| {
+                    let pair = p.canonical();
+                    if let Some(toi) = element_toi(&mesh, x0, x1, pair, thickness) {
+                        out.push(Impact { pair, toi });
+                    }
+                });
+            });
+            (out, tests)
+        };
+        let retested: Vec<(Vec<Impact>, u64)> = if tris.len() >= REPEAT_PAR_MIN {
+            tris.par_iter().map(retest).collect()
+        } else {
+            tris.iter().map(retest).collect()
+        };
+        let mut found: Vec<Impact> = self
+            .sweep
+            .found
+            .iter()
+            .filter(|i| {
+                let [a, b] = i.pair.visiting_triangles(&mesh);
+                !touched[a as usize] && !touched[b as usize]
+            })
+            .copied()
+            .collect();
+        for (items, tests) in retested {
+            found.extend(items);
+            s.proximity_tests += tests;
+        }
+        s.continuous_repeats += 1;
+        s.traverse_time += t1.elapsed().as_secs_f64();
+        Impacts::from_items(found)
     }
 
     /// Intersecting non-adjacent triangle pairs at `x`, sorted, with the
