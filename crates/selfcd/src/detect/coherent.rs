@@ -16,7 +16,11 @@
 //! rotation needs removing: a smooth motion has small spreads between nearby
 //! elements however far it carried them. For a linear motion `x0 -> x1`,
 //! `e_i(t) - e_j(t)` is a convex combination of the ends', so the larger of
-//! the two ends' spreads bounds it over the whole step.
+//! the two ends' spreads bounds it over the whole step. The queries take the
+//! spread over the pair's two visiting triangles
+//! ([`ElementPair::visiting_triangles`], which hold its vertices): a larger
+//! bound, shared by every pair of those triangles, read off the leaves'
+//! displacement boxes.
 //!
 //! **Query.** For a query within `d`, a pair of spread `< R - d` that is within
 //! `d` was within `R` at `r`: it is a candidate. So the answer is (a) the
@@ -68,6 +72,8 @@ struct Candidates {
     reach: f64,
     skin: f64,
     pairs: Vec<ElementPair>,
+    /// Visiting triangles of each pair ([`ElementPair::visiting_triangles`]).
+    tris: Vec<[u32; 2]>,
     /// Distance of each pair at `reference`, increasing.
     distance: Vec<f64>,
     /// Largest coordinate magnitude at `reference` (for the rounding slack).
@@ -116,16 +122,25 @@ impl Candidates {
     fn covered<'a>(
         &'a self,
         motion: &'a Motion,
-        mesh: &'a Mesh,
         reach: f64,
         allowance: f64,
-    ) -> (usize, impl Fn(usize) -> Option<ElementPair> + Sync + 'a) {
+    ) -> (
+        usize,
+        impl Fn(usize) -> Option<(ElementPair, [u32; 2])> + Sync + 'a,
+    ) {
         let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
         let prefix = self.distance.partition_point(|&d| d <= widest);
+        // Node boxes are fitted only when the whole mesh spreads more.
+        let whole = motion.whole_spread();
         let test = move |k: usize| {
-            let p = self.pairs[k];
-            let s = motion.pair_spread(mesh, p)?;
-            (s < allowance && self.distance[k] <= self.limit(motion, reach, s)).then_some(p)
+            let tris = self.tris[k];
+            let s = if whole < allowance {
+                whole
+            } else {
+                motion.node_spread(tris[0], tris[1])
+            };
+            (s < allowance && self.distance[k] <= self.limit(motion, reach, s))
+                .then_some((self.pairs[k], tris))
         };
         (prefix, test)
     }
@@ -223,26 +238,6 @@ impl Motion {
             })
             .fold(0.0, f64::max)
     }
-
-    /// The spread of an element pair's two sides (module doc); `None` for
-    /// incident pairs (never reported).
-    #[inline]
-    fn pair_spread(&self, mesh: &Mesh, p: ElementPair) -> Option<f64> {
-        let (kind, ids) = p.stencil(mesh)?;
-        let nv = self.vertex.len() / self.ends.max(1);
-        let (a, b) = ids.split_at(kind.split());
-        let side = |s: &[u32], k: usize| {
-            s.iter().fold(Aabb::EMPTY, |bx, &i| {
-                let e = self.vertex[k * nv + i as usize];
-                bx.union(&Aabb { min: e, max: e })
-            })
-        };
-        Some(
-            (0..self.ends)
-                .map(|k| spread(&side(a, k), &side(b, k)))
-                .fold(0.0, f64::max),
-        )
-    }
 }
 
 /// The traversal cull of part (b): a node or node pair whose displacement
@@ -285,16 +280,7 @@ impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<
         if self.motion.node_spread(a, b) < self.allowance {
             return; // every pair of the two triangles is covered
         }
-        for_each_owned_pair(self.mesh, a, b, |p| {
-            let p = p.canonical();
-            let covered = self
-                .motion
-                .pair_spread(self.mesh, p)
-                .is_none_or(|s| s < self.allowance);
-            if !covered {
-                out.extend((self.test)(p));
-            }
-        });
+        for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
     }
 }
 
@@ -519,6 +505,7 @@ impl SelfQueries {
             reach,
             skin: self.skin,
             distance: pairs.iter().map(|p| p.0).collect(),
+            tris: pairs.iter().map(|p| p.1.visiting_triangles(mesh)).collect(),
             pairs: pairs.into_iter().map(|p| p.1).collect(),
             magnitude,
             build_tests: c.primitive_tests,
@@ -633,12 +620,11 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
         let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
         found.extend(filter_map_ordered(prefix, |k| {
-            let p = covered(k)?;
+            let (p, [a, b]) = covered(k)?;
             // The fresh query's box test, so that the answers are the same to the bit.
-            let [a, b] = p.visiting_triangles(&mesh);
             if a == b || !boxes(a).within(&boxes(b), thickness) {
                 return None;
             }
@@ -705,9 +691,10 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
         found.extend(filter_map_ordered(prefix, |k| {
-            candidate_toi(&mesh, x0, x1, covered(k)?, thickness)
+            let (pair, tris) = covered(k)?;
+            candidate_toi(&mesh, x0, x1, pair, tris, thickness)
         }));
         s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();

@@ -143,21 +143,22 @@ pub(crate) fn swept_query(
     (Impacts::from_items(items), counters)
 }
 
-/// Time of impact of a candidate `pair` (canonical) exactly as the swept
-/// query computes it, box test included: `None` where the swept query would
-/// not report it. So a query over any candidate superset equals the swept query.
+/// Time of impact of a candidate `pair` (canonical) with visiting triangles
+/// `[a, b]` ([`ElementPair::visiting_triangles`]) exactly as the swept query
+/// computes it, box test included: `None` where the swept query would not
+/// report it. So a query over any candidate superset equals the swept query.
 pub(crate) fn candidate_toi(
     mesh: &Mesh,
     x0: &[DVec3],
     x1: &[DVec3],
     pair: ElementPair,
+    [a, b]: [u32; 2],
     thickness: f64,
 ) -> Option<Impact> {
     let swept = |t: u32| {
         Aabb::from_points(&mesh.corners(x0, t as usize))
             .union(&Aabb::from_points(&mesh.corners(x1, t as usize)))
     };
-    let [a, b] = pair.visiting_triangles(mesh);
     if a == b || !swept(a).within(&swept(b), thickness) {
         return None;
     }
