@@ -82,6 +82,9 @@ struct Candidates {
     build_tests: u64,
 }
 
+/// An element pair with its visiting triangles ([`ElementPair::visiting_triangles`]).
+type Visited = (ElementPair, [u32; 2]);
+
 /// Relative slack on the distance bounds below: covers rounding (1e-9 of the
 /// coordinates) and the time-of-impact resolution (1e-6 of the distances,
 /// taken 1000 times wider: a pair grazing the bound must not stall the
@@ -124,10 +127,7 @@ impl Candidates {
         motion: &'a Motion,
         reach: f64,
         allowance: f64,
-    ) -> (
-        usize,
-        impl Fn(usize) -> Option<(ElementPair, [u32; 2])> + Sync + 'a,
-    ) {
+    ) -> (usize, impl Fn(usize) -> Option<Visited> + Sync + 'a) {
         let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
         let prefix = self.distance.partition_point(|&d| d <= widest);
         // Node boxes are fitted only when the whole mesh spreads more.
