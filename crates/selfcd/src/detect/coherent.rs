@@ -621,7 +621,12 @@ impl SelfQueries {
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
         let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
-        let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
+        // The hierarchy's leaf boxes when it is fitted to `x`: the same boxes.
+        let leaves = (!self.all_covered(allowance)).then_some(&self.bvh.boxes);
+        let boxes = |t: u32| match leaves {
+            Some(b) => b[t as usize],
+            None => Aabb::from_points(&mesh.corners(x, t as usize)),
+        };
         found.extend(filter_map_ordered(prefix, |k| {
             let (p, [a, b]) = covered(k)?;
             // The fresh query's box test, so that the answers are the same to the bit.
@@ -692,9 +697,11 @@ impl SelfQueries {
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
         let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
+        // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
+        let leaves = (!self.all_covered(allowance)).then_some(self.bvh.boxes.as_slice());
         found.extend(filter_map_ordered(prefix, |k| {
             let (pair, tris) = covered(k)?;
-            candidate_toi(&mesh, x0, x1, pair, tris, thickness)
+            candidate_toi(&mesh, x0, x1, pair, tris, leaves, thickness)
         }));
         s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();
