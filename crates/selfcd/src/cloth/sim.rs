@@ -12,11 +12,15 @@
 //!    vertex-triangle contacts inside `d` constrained along their normal;
 //! 3. `v += dv`, contact impulses with friction;
 //! 4. continuous stage: continuous queries (self, and cloth against the
-//!    obstacles moving over the step) and inelastic impulses, repeated;
+//!    obstacles moving over the step) and inelastic impulses, repeated (a
+//!    repeated self query re-tests only the triangles of the vertices the
+//!    impulses moved);
 //! 5. `x += h v`;
 //! 6. correction: a conservative intersection check (self, and cloth against
 //!    the obstacles at the end of the step) and impact zones, repeated until
-//!    no intersecting triangle pair is left. Self-intersections the state
+//!    no intersecting triangle pair is left; the first self check is skipped
+//!    when the last continuous query proved the step clear
+//!    ([`StepStats::proved_clear`]). Self-intersections the state
 //!    already had at the start of the step (an input may come with some) are
 //!    left alone and still counted in [`StepStats::intersections`]; a state
 //!    free of them stays free.

@@ -33,6 +33,14 @@
 //! reports, so the answer equals it; `tests/continuous.rs` checks that on
 //! simulated sequences. A mesh that moved coherently culls the traversal near
 //! the root; the set is rebuilt when part (b) grew to a good share of a rebuild.
+//!
+//! **Repeated continuous queries.** A continuous query from the same start
+//! with the same thickness as the last one, whose end positions differ only
+//! at a few vertices (impulses changed their velocities), keeps the last
+//! answer's pairs whose two visiting triangles touch none of those vertices
+//! (everything the fresh query computes for such a pair reads only their
+//! positions) and tests the triangle pairs that touch one, by a descent of
+//! the hierarchy refitted to the new sweep.
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
@@ -653,7 +661,7 @@ impl SelfQueries {
     /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
     /// A query repeating the last one (same `x0` and `thickness`) with few end
     /// positions changed re-tests only the triangle pairs touching them
-    /// ([`repeat_continuous`](Self::repeat_continuous)); otherwise the answer
+    /// (`repeat_continuous`); otherwise the answer
     /// comes from the candidate set and the swept traversal of what it does
     /// not cover (module doc), rebuilding the set at `x0` when it is stale or
     /// does not reach `thickness`. Adds its work to `s`.
