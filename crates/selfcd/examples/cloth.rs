@@ -62,15 +62,20 @@ fn run() -> Result<(), String> {
         sim.step().map_err(|e| e.to_string())?;
     }
     let (mut step, mut solve, mut detect, mut response) = (0.0, 0.0, 0.0, 0.0);
+    let (mut proximity, mut continuous, mut ccd_rounds) = (0.0, 0.0, 0u64);
     let (mut iters, mut contacts, mut in_zones, mut rounds, mut worst) =
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
     let (mut builds, mut reuses, mut node_pairs, mut leaf_tests) = (0u64, 0u64, 0u64, 0u64);
+    let (mut repeats, mut proved) = (0u64, 0u64);
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
         step += st.step_time;
         solve += st.solve_time;
         detect += st.detect_time;
+        proximity += st.proximity_time;
+        continuous += st.continuous_time;
+        ccd_rounds += st.ccd_rounds as u64;
         response += st.response_time;
         iters += st.iterations as u64;
         contacts += st.contacts;
@@ -79,6 +84,8 @@ fn run() -> Result<(), String> {
         intersections += st.intersections;
         builds += st.detection.candidate_builds;
         reuses += st.detection.candidate_reuses;
+        repeats += st.detection.continuous_repeats;
+        proved += st.proved_clear as u64;
         node_pairs += st.detection.node_pairs;
         leaf_tests += st.detection.proximity_tests;
         worst = worst.max(st.step_time);
@@ -107,13 +114,20 @@ fn run() -> Result<(), String> {
         worst * 1e3
     );
     println!(
-        "mean CG iterations {:.1}, contacts/step {:.1}, vertices in impact zones {in_zones}, correction detections/step {:.2}, intersections left {intersections}",
+        "detection: proximity {:.3} ms, continuous {:.3} ms ({:.2} rounds/step), intersection checks {:.3} ms",
+        ms(proximity),
+        ms(continuous),
+        ccd_rounds as f64 / s,
+        ms(detect - proximity - continuous)
+    );
+    println!(
+        "mean CG iterations {:.1}, contacts/step {:.1}, vertices in impact zones {in_zones}, correction detections/step {:.2} (steps proved clear by the continuous stage {proved}), intersections left {intersections}",
         iters as f64 / s,
         contacts as f64 / s,
         rounds as f64 / s
     );
     println!(
-        "candidate sets built {builds}, queries answered from a cached set {reuses}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
+        "candidate sets built {builds}, queries answered from a cached set {reuses}, continuous repeats re-tested around changed vertices {repeats}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
         node_pairs as f64 / s,
         leaf_tests as f64 / s
     );

@@ -38,6 +38,10 @@ pub struct FrameStats {
     pub candidate_reuses: u64,
     /// Coherent queries: cached candidate element pairs re-tested.
     pub candidates: u64,
+    /// Coherent queries: continuous queries that repeated the last one with a
+    /// few end positions changed, answered by re-testing only the triangles
+    /// touching those (reused work).
+    pub continuous_repeats: u64,
     /// Sensor-gated only: did the sensor trigger the traversal this frame.
     pub triggered: Option<bool>,
     /// Sensor-gated only: particle updates made while relaxing.

@@ -306,3 +306,85 @@ fn translation_reuses_the_candidate_set() {
     assert_eq!(again, shaken);
     assert_eq!((s.candidate_builds, s.candidate_reuses), (2, 1));
 }
+
+/// The continuous stage's rounds: a query repeated from the same start with
+/// the end positions of a few vertices changed (as impulses change their
+/// velocities) re-tests only the triangles touching them, and must still
+/// answer exactly what a fresh query gives; so must a repeat where nothing
+/// changed and one where most vertices changed (a whole query).
+#[test]
+fn repeated_continuous_queries_equal_fresh_ones() {
+    use selfcd::cloth::PaperScene;
+    use selfcd::detect::coherent::SelfQueries;
+    use selfcd::FrameStats;
+
+    let mut sim = PaperScene::Center
+        .simulation(31, Method::BvhConesContour)
+        .unwrap();
+    let mesh = sim.cloth().mesh().clone();
+    let e = mesh.mean_edge_length();
+    let contact = sim.options().contact;
+    let mut q = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
+    let mut fresh = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
+    let mut s = FrameStats::default();
+    let (mut repeated_impacts, mut rounds) = (0, 0);
+    let mut x0 = sim.positions().to_vec();
+    for frame in 0..120 {
+        sim.step().unwrap();
+        let mut x1 = sim.positions().to_vec();
+        // The simulator's continuous thickness, and a wider one that finds more.
+        let thickness = if frame % 2 == 0 {
+            0.05 * e
+        } else {
+            contact.detection_distance()
+        };
+        for round in 0..4 {
+            let got = q.continuous(&x0, &x1, thickness, &mut s).unwrap();
+            let want = fresh.continuous(&x0, &x1, thickness).unwrap();
+            assert_eq!(got, want, "frame {frame}, round {round}");
+            if round > 0 {
+                repeated_impacts += got.vertex_triangle.len() + got.edge_edge.len();
+            }
+            rounds += 1;
+            // Slow down the vertices of what was found (an impulse), or, in
+            // the last round of some frames, most of the mesh.
+            let mut slow = |v: u32| {
+                let i = v as usize;
+                x1[i] = x0[i] + 0.5 * (x1[i] - x0[i]);
+            };
+            if round == 2 && frame % 5 == 0 {
+                (0..mesh.n_vertices() as u32)
+                    .filter(|v| v % 3 != 0)
+                    .for_each(&mut slow);
+                continue;
+            }
+            let topo = mesh.topology();
+            for i in got.vertex_triangle.iter().chain(&got.edge_edge) {
+                match i.pair {
+                    ElementPair::VertexTriangle(v, t) => {
+                        slow(v);
+                        mesh.triangles()[t as usize].into_iter().for_each(&mut slow);
+                    }
+                    ElementPair::EdgeEdge(a, b) => {
+                        topo.edges[a as usize].into_iter().for_each(&mut slow);
+                        topo.edges[b as usize].into_iter().for_each(&mut slow);
+                    }
+                }
+            }
+        }
+        x0 = sim.positions().to_vec();
+    }
+    eprintln!(
+        "{rounds} queries: {} repeats, {} builds, {} reuses, {repeated_impacts} impacts in repeats",
+        s.continuous_repeats, s.candidate_builds, s.candidate_reuses
+    );
+    assert!(
+        s.continuous_repeats > rounds / 2,
+        "the repeat path was not taken"
+    );
+    assert!(s.candidate_reuses > 0 && s.candidate_builds > 0);
+    assert!(
+        repeated_impacts > 0,
+        "no repeat found anything: nothing tested"
+    );
+}

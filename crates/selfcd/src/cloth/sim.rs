@@ -12,11 +12,15 @@
 //!    vertex-triangle contacts inside `d` constrained along their normal;
 //! 3. `v += dv`, contact impulses with friction;
 //! 4. continuous stage: continuous queries (self, and cloth against the
-//!    obstacles moving over the step) and inelastic impulses, repeated;
+//!    obstacles moving over the step) and inelastic impulses, repeated (a
+//!    repeated self query re-tests only the triangles of the vertices the
+//!    impulses moved);
 //! 5. `x += h v`;
 //! 6. correction: a conservative intersection check (self, and cloth against
 //!    the obstacles at the end of the step) and impact zones, repeated until
-//!    no intersecting triangle pair is left. Self-intersections the state
+//!    no intersecting triangle pair is left; the first self check is skipped
+//!    when the last continuous query proved the step clear
+//!    ([`StepStats::proved_clear`]). Self-intersections the state
 //!    already had at the start of the step (an input may come with some) are
 //!    left alone and still counted in [`StepStats::intersections`]; a state
 //!    free of them stays free.
@@ -127,6 +131,18 @@ pub struct StepStats {
     pub zones: usize,
     /// Intersection checks run by the correction stage.
     pub correction_rounds: u32,
+    /// The step started free of self-intersections and the continuous stage's
+    /// last self query, at the final velocities, found no element pair coming
+    /// within its thickness: then the step creates no self-intersection, and
+    /// the correction's first self check is skipped. Why: two triangles
+    /// sharing no vertex are disjoint at the start; while they stay
+    /// disjoint, their distance is the least of their vertex-triangle and
+    /// edge-edge distances (none of which share a vertex), and it changes
+    /// continuously, so before they could meet one of those pairs would come
+    /// within the thickness, which the query (conservative: no false
+    /// negatives) would have reported. The end positions are exactly that
+    /// query's `x0 + h v`.
+    pub proved_clear: bool,
     /// Intersecting triangle pairs left at the end of the step, self and
     /// cloth-obstacle (0 unless it started with some).
     pub intersections: usize,
@@ -136,6 +152,10 @@ pub struct StepStats {
     pub solve_time: f64,
     /// Self-collision query time (proximity, continuous and intersection checks).
     pub detect_time: f64,
+    /// Of which the proximity query.
+    pub proximity_time: f64,
+    /// Of which the continuous queries.
+    pub continuous_time: f64,
     /// Cloth-obstacle query time (the same three).
     pub obstacle_time: f64,
     /// Contact response time (everything else the step does).
@@ -311,7 +331,7 @@ impl Simulation {
         let mut det = FrameStats::default();
         if self.opts.self_collision {
             let reach = contact.detection_distance();
-            let near = timed(&mut st.detect_time, || {
+            let near = timed(&mut st.proximity_time, || {
                 self.queries.proximity(&self.x, reach, &mut det)
             })?;
             contacts = response::gather(self.cloth.mesh(), &self.x, &near);
@@ -369,6 +389,8 @@ impl Simulation {
         // 4. Continuous stage.
         let thickness = CONTINUOUS_THICKNESS * contact.thickness;
         let mut x1 = x0.clone();
+        // The last self query found nothing at the final velocities (see `correct`).
+        let mut clear = false;
         while st.ccd_rounds < CONTINUOUS_ROUNDS {
             for ((e, a), b) in x1.iter_mut().zip(&x0).zip(&v) {
                 *e = *a + *b * h;
@@ -377,10 +399,11 @@ impl Simulation {
             let mut hits = Vec::new();
             if self.opts.self_collision {
                 let (c0, c1) = (&x0[..n], &x1[..n]);
-                let found = timed(&mut st.detect_time, || {
+                let found = timed(&mut st.continuous_time, || {
                     self.queries.continuous(c0, c1, thickness, &mut det)
                 })?;
                 hits = response::impact_contacts(self.cloth.mesh(), c0, c1, &found);
+                clear = hits.is_empty();
             }
             if let Some((obs, bvh)) = self.obstacles.as_mut() {
                 let mut c = Collider::new(self.cloth.mesh(), bvh, obs);
@@ -393,6 +416,7 @@ impl Simulation {
             if applied == 0 {
                 break;
             }
+            clear = false;
         }
 
         // 5. Positions.
@@ -403,6 +427,8 @@ impl Simulation {
         }
 
         // 6. Correction.
+        st.detect_time = st.proximity_time + st.continuous_time;
+        st.proved_clear = clear && self.tolerated.is_empty();
         self.correct(&x0[..n], &o0, &o1, &mut st, &mut det)?;
         st.detection = det;
         self.time += h;
@@ -435,7 +461,9 @@ impl Simulation {
         loop {
             st.correction_rounds += 1;
             let cones = self.cones();
-            let all = if self.opts.self_collision {
+            // A proved-clear step skips its first self check (see `proved_clear`).
+            let proved = st.proved_clear && st.correction_rounds == 1;
+            let all = if self.opts.self_collision && !proved {
                 timed(&mut st.detect_time, || {
                     self.queries.intersections(&self.x, cones, det)
                 })?

@@ -16,7 +16,11 @@
 //! rotation needs removing: a smooth motion has small spreads between nearby
 //! elements however far it carried them. For a linear motion `x0 -> x1`,
 //! `e_i(t) - e_j(t)` is a convex combination of the ends', so the larger of
-//! the two ends' spreads bounds it over the whole step.
+//! the two ends' spreads bounds it over the whole step. The queries take the
+//! spread over the pair's two visiting triangles
+//! ([`ElementPair::visiting_triangles`], which hold its vertices): a larger
+//! bound, shared by every pair of those triangles, read off the leaves'
+//! displacement boxes.
 //!
 //! **Query.** For a query within `d`, a pair of spread `< R - d` that is within
 //! `d` was within `R` at `r`: it is a candidate. So the answer is (a) the
@@ -29,6 +33,14 @@
 //! reports, so the answer equals it; `tests/continuous.rs` checks that on
 //! simulated sequences. A mesh that moved coherently culls the traversal near
 //! the root; the set is rebuilt when part (b) grew to a good share of a rebuild.
+//!
+//! **Repeated continuous queries.** A continuous query from the same start
+//! with the same thickness as the last one, whose end positions differ only
+//! at a few vertices (impulses changed their velocities), keeps the last
+//! answer's pairs whose two visiting triangles touch none of those vertices
+//! (everything the fresh query computes for such a pair reads only their
+//! positions) and tests the triangle pairs that touch one, by a descent of
+//! the hierarchy refitted to the new sweep.
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
@@ -68,6 +80,8 @@ struct Candidates {
     reach: f64,
     skin: f64,
     pairs: Vec<ElementPair>,
+    /// Visiting triangles of each pair ([`ElementPair::visiting_triangles`]).
+    tris: Vec<[u32; 2]>,
     /// Distance of each pair at `reference`, increasing.
     distance: Vec<f64>,
     /// Largest coordinate magnitude at `reference` (for the rounding slack).
@@ -75,6 +89,9 @@ struct Candidates {
     /// Leaf pairs the build tested: what a rebuild costs.
     build_tests: u64,
 }
+
+/// An element pair with its visiting triangles ([`ElementPair::visiting_triangles`]).
+type Visited = (ElementPair, [u32; 2]);
 
 /// Relative slack on the distance bounds below: covers rounding (1e-9 of the
 /// coordinates) and the time-of-impact resolution (1e-6 of the distances,
@@ -116,16 +133,22 @@ impl Candidates {
     fn covered<'a>(
         &'a self,
         motion: &'a Motion,
-        mesh: &'a Mesh,
         reach: f64,
         allowance: f64,
-    ) -> (usize, impl Fn(usize) -> Option<ElementPair> + Sync + 'a) {
+    ) -> (usize, impl Fn(usize) -> Option<Visited> + Sync + 'a) {
         let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
         let prefix = self.distance.partition_point(|&d| d <= widest);
+        // Node boxes are fitted only when the whole mesh spreads more.
+        let whole = motion.whole_spread();
         let test = move |k: usize| {
-            let p = self.pairs[k];
-            let s = motion.pair_spread(mesh, p)?;
-            (s < allowance && self.distance[k] <= self.limit(motion, reach, s)).then_some(p)
+            let tris = self.tris[k];
+            let s = if whole < allowance {
+                whole
+            } else {
+                motion.node_spread(tris[0], tris[1])
+            };
+            (s < allowance && self.distance[k] <= self.limit(motion, reach, s))
+                .then_some((self.pairs[k], tris))
         };
         (prefix, test)
     }
@@ -223,26 +246,6 @@ impl Motion {
             })
             .fold(0.0, f64::max)
     }
-
-    /// The spread of an element pair's two sides (module doc); `None` for
-    /// incident pairs (never reported).
-    #[inline]
-    fn pair_spread(&self, mesh: &Mesh, p: ElementPair) -> Option<f64> {
-        let (kind, ids) = p.stencil(mesh)?;
-        let nv = self.vertex.len() / self.ends.max(1);
-        let (a, b) = ids.split_at(kind.split());
-        let side = |s: &[u32], k: usize| {
-            s.iter().fold(Aabb::EMPTY, |bx, &i| {
-                let e = self.vertex[k * nv + i as usize];
-                bx.union(&Aabb { min: e, max: e })
-            })
-        };
-        Some(
-            (0..self.ends)
-                .map(|k| spread(&side(a, k), &side(b, k)))
-                .fold(0.0, f64::max),
-        )
-    }
 }
 
 /// The traversal cull of part (b): a node or node pair whose displacement
@@ -285,16 +288,7 @@ impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<
         if self.motion.node_spread(a, b) < self.allowance {
             return; // every pair of the two triangles is covered
         }
-        for_each_owned_pair(self.mesh, a, b, |p| {
-            let p = p.canonical();
-            let covered = self
-                .motion
-                .pair_spread(self.mesh, p)
-                .is_none_or(|s| s < self.allowance);
-            if !covered {
-                out.extend((self.test)(p));
-            }
-        });
+        for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
     }
 }
 
@@ -337,6 +331,89 @@ fn filter_map_ordered<U: Send>(n: usize, f: impl Fn(usize) -> Option<U> + Sync +
     }
 }
 
+/// The last continuous query and its answer. A query repeated from the same
+/// start with the same thickness (the continuous stage's rounds, after
+/// impulses changed a few velocities) re-tests only the triangle pairs that
+/// touch a vertex whose end position changed (see [`SelfQueries::continuous`]).
+#[derive(Debug, Clone, Default)]
+struct Sweep {
+    x0: Vec<DVec3>,
+    x1: Vec<DVec3>,
+    thickness: f64,
+    found: Vec<Impact>,
+}
+
+/// A repeated continuous query re-tests the changed vertices' triangles only
+/// while at most this fraction of the vertices changed; past it a whole query
+/// costs about as much.
+const REPEAT_SHARE: f64 = 0.25;
+
+/// Below this many touched triangles a repeated query runs on one thread.
+const REPEAT_PAR_MIN: usize = 64;
+
+/// Bitwise equality of two positions (`==` would take -0.0 for 0.0).
+#[inline]
+fn same_bits(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+}
+
+impl Sweep {
+    /// The vertices whose end position differs from the last query's, when
+    /// the query repeats it (same start, same thickness) and few moved.
+    fn changed(&self, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Option<Vec<u32>> {
+        if self.x0.len() != x0.len() || self.thickness.to_bits() != thickness.to_bits() {
+            return None;
+        }
+        if !self.x0.iter().zip(x0).all(|(a, b)| same_bits(*a, *b)) {
+            return None;
+        }
+        let limit = (REPEAT_SHARE * x1.len() as f64) as usize;
+        let mut changed = Vec::new();
+        for (i, (a, b)) in self.x1.iter().zip(x1).enumerate() {
+            if !same_bits(*a, *b) {
+                if changed.len() == limit {
+                    return None;
+                }
+                changed.push(i as u32);
+            }
+        }
+        Some(changed)
+    }
+
+    /// Keeps `found` as the answer of the query `x0 -> x1` within `thickness`.
+    fn record(&mut self, x0: &[DVec3], x1: &[DVec3], thickness: f64, found: &Impacts) {
+        self.x0.clear();
+        self.x0.extend_from_slice(x0);
+        self.x1.clear();
+        self.x1.extend_from_slice(x1);
+        self.thickness = thickness;
+        self.found.clear();
+        self.found
+            .extend(found.vertex_triangle.iter().chain(&found.edge_edge));
+    }
+}
+
+/// The leaves whose boxes are within `gap` of leaf `a`'s, by a descent of
+/// the hierarchy from the root: exactly the leaves the self-traversal pairs
+/// with `a` (it reaches every leaf pair whose boxes are within `gap`, since
+/// a node's box holds its leaves').
+fn leaves_near(bvh: &Bvh, a: u32, gap: f64, mut f: impl FnMut(u32)) {
+    let query = bvh.boxes[a as usize];
+    let mut stack = vec![bvh.root()];
+    while let Some(n) = stack.pop() {
+        if !bvh.boxes[n as usize].within(&query, gap) {
+            continue;
+        }
+        if bvh.is_leaf(n) {
+            if n != a {
+                f(n);
+            }
+        } else {
+            stack.extend(bvh.children_of(n));
+        }
+    }
+}
+
 /// The self queries of one mesh over a sequence of frames: one hierarchy and
 /// one candidate set (see the module doc).
 pub struct SelfQueries {
@@ -347,6 +424,8 @@ pub struct SelfQueries {
     motion: Motion,
     /// The last reuse query's fresh part cost a good share of a rebuild.
     stale: bool,
+    /// The last continuous query, for repeats.
+    sweep: Sweep,
     skin: f64,
     max_contacts: usize,
 }
@@ -368,6 +447,7 @@ impl SelfQueries {
             candidates: Candidates::default(),
             motion: Motion::default(),
             stale: false,
+            sweep: Sweep::default(),
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
         })
@@ -433,6 +513,7 @@ impl SelfQueries {
             reach,
             skin: self.skin,
             distance: pairs.iter().map(|p| p.0).collect(),
+            tris: pairs.iter().map(|p| p.1.visiting_triangles(mesh)).collect(),
             pairs: pairs.into_iter().map(|p| p.1).collect(),
             magnitude,
             build_tests: c.primitive_tests,
@@ -547,12 +628,16 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
-        let boxes = |t: u32| Aabb::from_points(&mesh.corners(x, t as usize));
+        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
+        // The hierarchy's leaf boxes when it is fitted to `x`: the same boxes.
+        let leaves = (!self.all_covered(allowance)).then_some(&self.bvh.boxes);
+        let boxes = |t: u32| match leaves {
+            Some(b) => b[t as usize],
+            None => Aabb::from_points(&mesh.corners(x, t as usize)),
+        };
         found.extend(filter_map_ordered(prefix, |k| {
-            let p = covered(k)?;
+            let (p, [a, b]) = covered(k)?;
             // The fresh query's box test, so that the answers are the same to the bit.
-            let [a, b] = p.visiting_triangles(&mesh);
             if a == b || !boxes(a).within(&boxes(b), thickness) {
                 return None;
             }
@@ -574,9 +659,12 @@ impl SelfQueries {
     /// Every element pair that may come within `thickness` (>= 0) while the
     /// mesh moves linearly from `x0` to `x1`: equal to
     /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
-    /// From the candidate set and the swept traversal of what it does not
-    /// cover (module doc); rebuilds the set at `x0` when it is stale or does
-    /// not reach `thickness`. Adds its work to `s`.
+    /// A query repeating the last one (same `x0` and `thickness`) with few end
+    /// positions changed re-tests only the triangle pairs touching them
+    /// (`repeat_continuous`); otherwise the answer
+    /// comes from the candidate set and the swept traversal of what it does
+    /// not cover (module doc), rebuilding the set at `x0` when it is stale or
+    /// does not reach `thickness`. Adds its work to `s`.
     pub fn continuous(
         &mut self,
         x0: &[DVec3],
@@ -584,8 +672,25 @@ impl SelfQueries {
         thickness: f64,
         s: &mut FrameStats,
     ) -> Result<Impacts> {
+        check_args(&self.mesh, x0, x1, thickness)?;
+        let found = match self.sweep.changed(x0, x1, thickness) {
+            Some(changed) => self.repeat_continuous(x0, x1, thickness, &changed, s),
+            None => self.fresh_continuous(x0, x1, thickness, s)?,
+        };
+        self.sweep.record(x0, x1, thickness, &found);
+        Ok(found)
+    }
+
+    /// The continuous query from the candidate set and the swept traversal of
+    /// what it does not cover.
+    fn fresh_continuous(
+        &mut self,
+        x0: &[DVec3],
+        x1: &[DVec3],
+        thickness: f64,
+        s: &mut FrameStats,
+    ) -> Result<Impacts> {
         let mesh = self.mesh.clone();
-        check_args(&mesh, x0, x1, thickness)?;
         let allowance = self.prepare(&[x0, x1], thickness, s)?;
         let t0 = Instant::now();
         if !self.all_covered(allowance) {
@@ -599,13 +704,89 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, &mesh, thickness, allowance);
+        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
+        // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
+        let leaves = (!self.all_covered(allowance)).then_some(self.bvh.boxes.as_slice());
         found.extend(filter_map_ordered(prefix, |k| {
-            candidate_toi(&mesh, x0, x1, covered(k)?, thickness)
+            let (pair, tris) = covered(k)?;
+            candidate_toi(&mesh, x0, x1, pair, tris, leaves, thickness)
         }));
         s.candidates += prefix as u64;
         s.traverse_time += t1.elapsed().as_secs_f64();
         Ok(Impacts::from_items(found))
+    }
+
+    /// The last continuous query repeated with the end positions of the
+    /// `changed` vertices moved. The answer for an element pair reads only
+    /// the positions of its two visiting triangles (the swept box test of
+    /// those triangles, then the time of impact of the pair's stencil, whose
+    /// vertices lie on them), so the last answer's pairs whose visiting
+    /// triangles touch no changed vertex stay as they were, and the triangle
+    /// pairs that do touch one are tested as the swept traversal tests them:
+    /// every leaf within `thickness` of a touched triangle's swept box, found
+    /// by a descent of the hierarchy fitted to the new sweep.
+    fn repeat_continuous(
+        &mut self,
+        x0: &[DVec3],
+        x1: &[DVec3],
+        thickness: f64,
+        changed: &[u32],
+        s: &mut FrameStats,
+    ) -> Impacts {
+        let t0 = Instant::now();
+        let mesh = self.mesh.clone();
+        let mut touched = vec![false; mesh.n_triangles()];
+        for &v in changed {
+            for &t in mesh.topology().vertex_tris.row(v as usize) {
+                touched[t as usize] = true;
+            }
+        }
+        let tris: Vec<u32> = (0..mesh.n_triangles() as u32)
+            .filter(|&t| touched[t as usize])
+            .collect();
+        self.bvh.refit_swept(&mesh, x0, x1);
+        self.fit.fitted = false;
+        let t1 = Instant::now();
+        s.refit_time += (t1 - t0).as_secs_f64();
+        let bvh = &self.bvh;
+        let retest = |&a: &u32| {
+            let (mut out, mut tests) = (Vec::new(), 0u64);
+            leaves_near(bvh, a, thickness, |b| {
+                if touched[b as usize] && b < a {
+                    return; // tested from b
+                }
+                tests += 1;
+                for_each_owned_pair(&mesh, a.min(b), a.max(b), |p| {
+                    let pair = p.canonical();
+                    if let Some(toi) = element_toi(&mesh, x0, x1, pair, thickness) {
+                        out.push(Impact { pair, toi });
+                    }
+                });
+            });
+            (out, tests)
+        };
+        let retested: Vec<(Vec<Impact>, u64)> = if tris.len() >= REPEAT_PAR_MIN {
+            tris.par_iter().map(retest).collect()
+        } else {
+            tris.iter().map(retest).collect()
+        };
+        let mut found: Vec<Impact> = self
+            .sweep
+            .found
+            .iter()
+            .filter(|i| {
+                let [a, b] = i.pair.visiting_triangles(&mesh);
+                !touched[a as usize] && !touched[b as usize]
+            })
+            .copied()
+            .collect();
+        for (items, tests) in retested {
+            found.extend(items);
+            s.proximity_tests += tests;
+        }
+        s.continuous_repeats += 1;
+        s.traverse_time += t1.elapsed().as_secs_f64();
+        Impacts::from_items(found)
     }
 
     /// Intersecting non-adjacent triangle pairs at `x`, sorted, with the

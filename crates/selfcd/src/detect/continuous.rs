@@ -143,21 +143,26 @@ pub(crate) fn swept_query(
     (Impacts::from_items(items), counters)
 }
 
-/// Time of impact of a candidate `pair` (canonical) exactly as the swept
-/// query computes it, box test included: `None` where the swept query would
-/// not report it. So a query over any candidate superset equals the swept query.
+/// Time of impact of a candidate `pair` (canonical) with visiting triangles
+/// `[a, b]` ([`ElementPair::visiting_triangles`]) exactly as the swept query
+/// computes it, box test included: `None` where the swept query would not
+/// report it. So a query over any candidate superset equals the swept query.
+/// `leaves`: the swept leaf boxes of a hierarchy fitted to this motion
+/// ([`Bvh::refit_swept`], the same boxes), if there is one.
 pub(crate) fn candidate_toi(
     mesh: &Mesh,
     x0: &[DVec3],
     x1: &[DVec3],
     pair: ElementPair,
+    [a, b]: [u32; 2],
+    leaves: Option<&[Aabb]>,
     thickness: f64,
 ) -> Option<Impact> {
-    let swept = |t: u32| {
-        Aabb::from_points(&mesh.corners(x0, t as usize))
-            .union(&Aabb::from_points(&mesh.corners(x1, t as usize)))
+    let swept = |t: u32| match leaves {
+        Some(boxes) => boxes[t as usize],
+        None => Aabb::from_points(&mesh.corners(x0, t as usize))
+            .union(&Aabb::from_points(&mesh.corners(x1, t as usize))),
     };
-    let [a, b] = pair.visiting_triangles(mesh);
     if a == b || !swept(a).within(&swept(b), thickness) {
         return None;
     }
