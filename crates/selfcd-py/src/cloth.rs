@@ -28,7 +28,7 @@ pub fn materials() -> Vec<&'static str> {
 }
 
 /// Scalar fields of StepStats (the detection stats are kept apart).
-fn step_fields(s: &StepStats) -> [(&'static str, f64); 19] {
+fn step_fields(s: &StepStats) -> [(&'static str, f64); 22] {
     [
         ("iterations", s.iterations as f64),
         ("residual", s.residual),
@@ -42,10 +42,13 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 19] {
         ("reverted", s.reverted as f64),
         ("zones", s.zones as f64),
         ("correction_rounds", s.correction_rounds as f64),
+        ("proved_clear", s.proved_clear as u8 as f64),
         ("intersections", s.intersections as f64),
         ("obstacle_intersections", s.obstacle_intersections as f64),
         ("solve_time", s.solve_time),
         ("detect_time", s.detect_time),
+        ("proximity_time", s.proximity_time),
+        ("continuous_time", s.continuous_time),
         ("obstacle_time", s.obstacle_time),
         ("response_time", s.response_time),
         ("step_time", s.step_time),
@@ -56,7 +59,14 @@ fn step_fields(s: &StepStats) -> [(&'static str, f64); 19] {
 fn is_count(name: &str) -> bool {
     !matches!(
         name,
-        "residual" | "solve_time" | "detect_time" | "obstacle_time" | "response_time" | "step_time"
+        "residual"
+            | "solve_time"
+            | "detect_time"
+            | "proximity_time"
+            | "continuous_time"
+            | "obstacle_time"
+            | "response_time"
+            | "step_time"
     )
 }
 
