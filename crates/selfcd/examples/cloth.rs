@@ -6,8 +6,8 @@
 //! scene: two-corners | corner | center (default center); n: vertices per side
 //! (default 11); steps: timed steps (default 600); method: detection method
 //! (default bvh-cones-contour); warmup: steps run before timing (default 0).
-//! `CLOTH_PRECONDITIONER=block-jacobi` solves with the block-Jacobi
-//! preconditioner instead of the default multigrid.
+//! `CLOTH_PRECONDITIONER=block-jacobi|multigrid` overrides the preconditioner
+//! the simulator picks by size (`Preconditioner::for_vertices`).
 
 use selfcd::cloth::{Material, PaperScene, Preconditioner, SimOptions, Simulation};
 use selfcd::detect::Method;
@@ -53,7 +53,8 @@ fn run() -> Result<(), String> {
     let mut opts = SimOptions::for_cloth(&cloth);
     opts.pcg.preconditioner = match std::env::var("CLOTH_PRECONDITIONER").as_deref() {
         Ok("block-jacobi") => Preconditioner::BlockJacobi,
-        Ok("multigrid") | Err(_) => Preconditioner::Multigrid,
+        Ok("multigrid") => Preconditioner::Multigrid,
+        Err(_) => opts.pcg.preconditioner,
         Ok(other) => return Err(format!("unknown preconditioner {other:?}")),
     };
     let mut sim = Simulation::new(cloth, method, opts).map_err(|e| e.to_string())?;

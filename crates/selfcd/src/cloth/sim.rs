@@ -35,7 +35,7 @@
 use super::model::{Cloth, Energy};
 use super::obstacle::{Collider, Obstacles};
 use super::response::{self, Contact, ContactParams, StepStart, Zones};
-use super::solver::{Filter, Pcg, PcgOptions, System};
+use super::solver::{Filter, Pcg, PcgOptions, Preconditioner, System};
 use crate::bvh::{build::build, Bvh};
 use crate::detect::coherent::SelfQueries;
 use crate::detect::Method;
@@ -64,7 +64,10 @@ impl SimOptions {
     pub fn for_cloth(cloth: &Cloth) -> SimOptions {
         SimOptions {
             dt: 1.0 / 60.0,
-            pcg: PcgOptions::default(),
+            pcg: PcgOptions {
+                preconditioner: Preconditioner::for_vertices(cloth.mesh().n_vertices()),
+                ..PcgOptions::default()
+            },
             contact: ContactParams::for_mesh(cloth.mesh()),
             self_collision: true,
         }

@@ -263,12 +263,31 @@ fn for_chunks3(
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Preconditioner {
     /// `P = blockdiag(A)`: cheap, but the iterations grow with the resolution.
+    #[default]
     BlockJacobi,
     /// One V-cycle of aggregation multigrid on the unfiltered `A`
     /// ([`super::multigrid`]): about three matrix products per iteration, and
     /// far fewer iterations on fine meshes.
-    #[default]
     Multigrid,
+}
+
+/// From this many vertices up, [`Preconditioner::for_vertices`] picks multigrid.
+/// Measured on the centre scene, 2 threads (BENCHMARKS.md, "Lead: choosing the
+/// preconditioner"): multigrid cut the iterations 4x everywhere, but its solve
+/// took 15% longer at 1,681 vertices and 10% longer at 10,201 (block Jacobi's
+/// cheaper iterations parallelise better), and 30% less at 40,401.
+pub const MULTIGRID_MIN_VERTICES: usize = 20_000;
+
+impl Preconditioner {
+    /// The faster preconditioner for a cloth of `n` vertices on measured runs:
+    /// multigrid from [`MULTIGRID_MIN_VERTICES`] up, block Jacobi below.
+    pub fn for_vertices(n: usize) -> Preconditioner {
+        if n >= MULTIGRID_MIN_VERTICES {
+            Preconditioner::Multigrid
+        } else {
+            Preconditioner::BlockJacobi
+        }
+    }
 }
 
 /// Stopping rule, iteration cap and preconditioner of the conjugate gradients.
