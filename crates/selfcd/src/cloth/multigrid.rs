@@ -42,6 +42,7 @@
 //! sweeps, still needs about 21 at 101 x 101.
 
 use super::matrix::{for_chunks, LinkMatrix};
+use crate::mesh::Csr;
 use glam::{DMat3, DVec3, Mat3A, Vec3, Vec3A};
 
 /// Jacobi damping: contracting for any `D^-1 A` with spectrum in (0, 2).
@@ -56,38 +57,6 @@ const MIN_REDUCTION: f64 = 0.8;
 const DENSE_MAX: usize = 96;
 /// Jacobi sweeps of the coarsest level when it is too big for the dense solve.
 const COARSE_SWEEPS: usize = 8;
-
-/// Rows of a compressed list: `items[start[k]..start[k + 1]]` belong to k.
-#[derive(Debug, Clone, Default)]
-struct Csr {
-    start: Vec<u32>,
-    items: Vec<u32>,
-}
-
-impl Csr {
-    /// Groups `(row, item)` pairs by row (`rows` rows), items in the given order.
-    fn from_pairs(rows: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) -> Csr {
-        let mut start = vec![0u32; rows + 1];
-        for (r, _) in pairs.clone() {
-            start[r as usize + 1] += 1;
-        }
-        for k in 0..rows {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut items = vec![0u32; start[rows] as usize];
-        for (r, x) in pairs {
-            items[fill[r as usize] as usize] = x;
-            fill[r as usize] += 1;
-        }
-        Csr { start, items }
-    }
-
-    #[inline]
-    fn row(&self, k: usize) -> &[u32] {
-        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
-    }
-}
 
 /// How one level's vertices and links map to the next coarser level.
 #[derive(Debug, Clone)]
