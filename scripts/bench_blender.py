@@ -40,19 +40,20 @@ FPS = 60
 
 
 class BlenderCloth:
-    """One of the paper's scenes as a Blender cloth object in a fresh, empty scene."""
+    """A selfcd cloth scene as a Blender cloth object in a fresh, empty scene."""
 
-    def __init__(self, bpy: Any, scene: str, n: int, thickness: float, frames: int) -> None:
+    def __init__(self, bpy: Any, sim: selfcd.Simulation, frames: int) -> None:
+        """The cloth of `sim` (its rest mesh, pins and contact thickness) in Blender."""
         bpy.ops.wm.read_factory_settings(use_empty=True)
         self.bpy = bpy
-        V, F = selfcd.scenes.grid(n)
+        V, F = sim.mesh.vertices, sim.mesh.faces
         mesh = bpy.data.meshes.new("cloth")
         mesh.from_pydata(V.tolist(), [], F.tolist())
         mesh.update()
         self.obj = bpy.data.objects.new("cloth", mesh)
         self.scene = bpy.context.scene
         self.scene.collection.objects.link(self.obj)
-        pins = np.flatnonzero(selfcd.Simulation(scene, resolution=n).pinned).tolist()
+        pins = np.flatnonzero(sim.pinned).tolist()
         group = self.obj.vertex_groups.new(name="pin")
         group.add(pins, 1.0, "REPLACE")
         mod = self.obj.modifiers.new("cloth", "CLOTH")
@@ -66,7 +67,7 @@ class BlenderCloth:
         s.vertex_group_mass = "pin"
         c = mod.collision_settings
         c.use_self_collision = True
-        c.self_distance_min = thickness
+        c.self_distance_min = sim.contact_thickness
         self.scene.gravity = (0.0, 0.0, -9.81)
         self.scene.render.fps = FPS
         self.scene.frame_start, self.scene.frame_end = 1, frames + 1
@@ -92,7 +93,7 @@ class BlenderCloth:
 def run_scene(bpy: Any, scene: str, n: int, frames: int) -> dict[str, Any]:
     sim = selfcd.Simulation(scene, resolution=n)
     faces = sim.mesh.faces
-    blender = BlenderCloth(bpy, scene, n, sim.contact_thickness, frames)
+    blender = BlenderCloth(bpy, sim, frames)
     times: dict[str, list[float]] = {"selfcd": [], "blender": []}
     left: dict[str, list[int]] = {"selfcd": [], "blender": []}
     last: dict[str, np.ndarray] = {}

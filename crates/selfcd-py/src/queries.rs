@@ -54,7 +54,7 @@ impl PySelfQueries {
     #[pyo3(signature = (mesh, skin = None))]
     fn new(py: Python<'_>, mesh: &PyMesh, skin: Option<f64>) -> PyResult<Self> {
         let arc = mesh.inner.clone();
-        let skin = skin.unwrap_or_else(|| 0.25 * arc.mean_edge_length());
+        let skin = skin.unwrap_or_else(|| SelfQueries::default_skin(&arc));
         let q = py.detach(|| guard("SelfQueries()", || SelfQueries::new(arc, skin)))?;
         Ok(PySelfQueries {
             inner: Mutex::new((q, FrameStats::default())),

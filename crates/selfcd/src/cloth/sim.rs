@@ -95,12 +95,6 @@ impl SimOptions {
 const CONTINUOUS_THICKNESS: f64 = 0.5;
 /// Most continuous queries per step.
 const CONTINUOUS_ROUNDS: u32 = 4;
-/// Skin of the self candidate set, in mean rest edge lengths: a pair's
-/// candidacy stays valid while the displacements of its vertices differ by
-/// less than this (see [`SelfQueries`]). Measured on the centre scene at
-/// 3,200 triangles over 60 steps (instructions, against 0.25 at the same
-/// rebuild share): 0.15 +0.6%, 0.2 +5%, 0.3 +4%, 0.4 +14%.
-const SKIN: f64 = 0.25;
 /// Most correction rounds per step.
 const CORRECTION_ROUNDS: u32 = 64;
 
@@ -204,7 +198,7 @@ impl Simulation {
     pub fn new(cloth: Cloth, method: Method, opts: SimOptions) -> Result<Simulation> {
         opts.validate()?;
         let mesh = cloth.mesh().clone();
-        let mut queries = SelfQueries::new(mesh.clone(), SKIN * mesh.mean_edge_length())?;
+        let mut queries = SelfQueries::new(mesh.clone(), SelfQueries::default_skin(&mesh))?;
         let tolerated = queries.intersections(
             mesh.rest(),
             method != Method::Bvh,

@@ -430,7 +430,19 @@ pub struct SelfQueries {
     max_contacts: usize,
 }
 
+/// Default skin of the candidate set, in mean rest edge lengths: a pair's
+/// candidacy stays valid while the displacements of its vertices differ by
+/// less than this. Measured on the centre scene at 3,200 triangles over 60
+/// steps (instructions, against 0.25 at the same rebuild share): 0.15 +0.6%,
+/// 0.2 +5%, 0.3 +4%, 0.4 +14%.
+pub const DEFAULT_SKIN: f64 = 0.25;
+
 impl SelfQueries {
+    /// The default skin for `mesh`: [`DEFAULT_SKIN`] mean rest edge lengths.
+    pub fn default_skin(mesh: &Mesh) -> f64 {
+        DEFAULT_SKIN * mesh.mean_edge_length()
+    }
+
     /// Builds the hierarchy of `mesh`; candidate sets are built with `skin`
     /// (> 0, finite) beyond the distance asked for.
     pub fn new(mesh: Arc<Mesh>, skin: f64) -> Result<SelfQueries> {
