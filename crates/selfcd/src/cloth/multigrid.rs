@@ -41,7 +41,7 @@
 //! piecewise-constant coarse spaces bound it: a W-cycle, or three smoothing
 //! sweeps, still needs about 21 at 101 x 101.
 
-use super::matrix::{for_chunks, LinkMatrix};
+use super::matrix::{for_chunks, LinkMatrix, Sym3};
 use crate::mesh::Csr;
 use glam::{DMat3, DVec3, Mat3A, Vec3, Vec3A};
 
@@ -116,11 +116,10 @@ impl Coarsening {
     fn galerkin(&self, fine: &LinkMatrix, coarse: &mut LinkMatrix) {
         for_chunks(&mut coarse.link, |start, out| {
             for (k, b) in out.iter_mut().enumerate() {
-                *b = self
-                    .sources
-                    .row(start + k)
-                    .iter()
-                    .fold(DMat3::ZERO, |acc, &s| acc + fine.link[s as usize]);
+                let sum = self.sources.row(start + k).iter();
+                *b = Sym3::upper(
+                    &sum.fold(DMat3::ZERO, |acc, &s| acc + fine.link[s as usize].mat()),
+                );
             }
             0.0
         });
@@ -130,7 +129,7 @@ impl Coarsening {
                 let own = self.members.row(a).iter();
                 let sum = own.fold(DMat3::ZERO, |acc, &i| acc + fine.diag[i as usize]);
                 let inner = self.internal.row(a).iter();
-                *d = inner.fold(sum, |acc, &s| acc - fine.link[s as usize] * 2.0);
+                *d = inner.fold(sum, |acc, &s| acc - fine.link[s as usize].mat() * 2.0);
             }
             0.0
         });
@@ -161,8 +160,7 @@ impl Coarsening {
 /// Strength of link `s`: the trace of its block (every block is PSD, so the
 /// trace bounds its norm).
 fn strength(a: &LinkMatrix, s: u32) -> f64 {
-    let b = &a.link[s as usize];
-    b.x_axis.x + b.y_axis.y + b.z_axis.z
+    a.link[s as usize].trace()
 }
 
 /// Pairwise matching: in vertex order, each unmatched vertex is paired with
@@ -245,7 +243,7 @@ impl Compact {
         let links = &self.links;
         for_chunks(&mut self.blocks, |start, out| {
             for (k, b) in out.iter_mut().enumerate() {
-                *b = single(-a.link[links[start + k] as usize] / scale);
+                *b = single(-a.link[links[start + k] as usize].mat() / scale);
             }
             0.0
         });
@@ -506,7 +504,7 @@ fn cholesky(a: &LinkMatrix, scale: f64) -> Option<Vec<f64>> {
         };
         put(i, &a.diag[i], 1.0 / scale);
         for &(s, j) in a.row(i) {
-            put(j as usize, &a.link[s as usize], -1.0 / scale);
+            put(j as usize, &a.link[s as usize].mat(), -1.0 / scale);
         }
     }
     for j in 0..n {
@@ -636,7 +634,9 @@ mod tests {
             let (sa, sr) = (2f64.powi(ka), 2f64.powi(kr));
             let mut b = a.clone();
             b.diag.iter_mut().for_each(|d| *d *= sa);
-            b.link.iter_mut().for_each(|l| *l *= sa);
+            b.link
+                .iter_mut()
+                .for_each(|l| *l = Sym3::upper(&(l.mat() * sa)));
             let rs: Vec<DVec3> = r.iter().map(|v| *v * sr).collect();
             let z = apply(&mut Multigrid::new(&b), &rs);
             for (x, y) in z.iter().zip(&reference) {

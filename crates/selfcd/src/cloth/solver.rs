@@ -17,7 +17,7 @@
 //! vertex in contact with normal n has `S_i = I - n n^T` and `z_i` along n.
 //! The modified PCG of Baraff & Witkin solves within that affine space.
 
-use super::matrix::{dot, for_chunks, LinkMatrix, CHUNK, PAR_MIN};
+use super::matrix::{dot, for_chunks, LinkMatrix, Sym3, CHUNK, PAR_MIN};
 use super::model::Cloth;
 use super::multigrid::Multigrid;
 use super::springs::evaluate;
@@ -164,7 +164,8 @@ impl System {
             &mut self.spring_rhs,
             |start, blocks, rhs| {
                 for (k, (blk, r)) in blocks.iter_mut().zip(rhs.iter_mut()).enumerate() {
-                    (*blk, *r) = link_block(start + k);
+                    let (block, rhs) = link_block(start + k);
+                    (*blk, *r) = (Sym3::upper(&block), rhs);
                 }
             },
         );
@@ -178,7 +179,7 @@ impl System {
                 let mut f = (g - v[i] * drag) * mass[i];
                 for &(l, _) in a.row(i) {
                     let l = l as usize;
-                    block += a.link[l];
+                    block += a.link[l].mat();
                     // The spring's first end gets +rhs, its second end -rhs.
                     f += if s.ends[l][0] as usize == i {
                         spring_rhs[l]
