@@ -378,8 +378,11 @@ fn repeated_continuous_queries_equal_fresh_ones() {
         "{rounds} queries: {} repeats, {} builds, {} reuses, {repeated_impacts} impacts in repeats",
         s.continuous_repeats, s.candidate_builds, s.candidate_reuses
     );
+    // Rounds 1-3 of every frame may repeat round 0's query; most of them
+    // should (round 2 of every fifth frame changes too many vertices).
+    let repeatable = rounds * 3 / 4;
     assert!(
-        s.continuous_repeats > rounds / 2,
+        s.continuous_repeats > repeatable / 2,
         "the repeat path was not taken"
     );
     assert!(s.candidate_reuses > 0 && s.candidate_builds > 0);
