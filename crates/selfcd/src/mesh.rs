@@ -62,6 +62,10 @@ pub struct Topology {
     pub edge_tris: Csr,
     /// For each vertex, the triangles that contain it.
     pub vertex_tris: Csr,
+    /// For each triangle, which of its elements it *owns* (is the first
+    /// triangle of, in `vertex_tris` / `edge_tris`): bit k for vertex k, bit
+    /// 3 + k for edge k. Each vertex and edge has exactly one owner.
+    pub owned: Vec<u8>,
 }
 
 impl Topology {
@@ -87,11 +91,21 @@ impl Topology {
             },
             || rows(n_vertices, tris),
         );
+        let owned = (0..tris.len())
+            .into_par_iter()
+            .map(|t| {
+                let first = |row: &[u32]| row[0] as usize == t;
+                let vertices = (0..3).filter(|&k| first(vertex_tris.row(tris[t][k] as usize)));
+                let sides = (0..3).filter(|&k| first(edge_tris.row(tri_edges[t][k] as usize)));
+                vertices.map(|k| 1u8 << k).sum::<u8>() + sides.map(|k| 8u8 << k).sum::<u8>()
+            })
+            .collect();
         Topology {
             edges,
             tri_edges,
             edge_tris,
             vertex_tris,
+            owned,
         }
     }
 

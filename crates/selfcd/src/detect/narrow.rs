@@ -222,24 +222,19 @@ pub enum ElementPair {
 pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(ElementPair)) {
     let topo = mesh.topology();
     let tris = mesh.triangles();
-    let owns_vertex = |t: u32, v: u32| topo.vertex_tris.row(v as usize)[0] == t;
-    let owns_edge = |t: u32, e: u32| topo.edge_tris.row(e as usize)[0] == t;
-    for (x, y) in [(a, b), (b, a)] {
-        for &v in &tris[x as usize] {
-            if owns_vertex(x, v) {
-                f(ElementPair::VertexTriangle(v, y));
-            }
+    let (a, b) = (a as usize, b as usize);
+    let (oa, ob) = (topo.owned[a], topo.owned[b]);
+    for (x, y, owned) in [(a, b, oa), (b, a, ob)] {
+        for k in (0..3).filter(|k| owned & (1 << k) != 0) {
+            f(ElementPair::VertexTriangle(tris[x][k], y as u32));
         }
     }
-    for &ea in topo.tri_edges[a as usize]
-        .iter()
-        .filter(|&&e| owns_edge(a, e))
-    {
-        for &eb in topo.tri_edges[b as usize]
-            .iter()
-            .filter(|&&e| owns_edge(b, e))
-        {
-            f(ElementPair::EdgeEdge(ea, eb));
+    for ka in (0..3).filter(|k| oa & (8 << k) != 0) {
+        for kb in (0..3).filter(|k| ob & (8 << k) != 0) {
+            f(ElementPair::EdgeEdge(
+                topo.tri_edges[a][ka],
+                topo.tri_edges[b][kb],
+            ));
         }
     }
 }
