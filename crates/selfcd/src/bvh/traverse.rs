@@ -104,7 +104,8 @@ pub fn traverse<C: Cull, V: LeafVisitor>(
     // Spawn parallel tasks only where there is enough work to share.
     let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
     let acc = ctx.self_task(bvh.root(), par_depth);
-    (acc.items, acc.counters)
+    let counters = acc.counters;
+    (acc.into_items(), counters)
 }
 
 struct Ctx<'a, C, V> {
@@ -115,8 +116,12 @@ struct Ctx<'a, C, V> {
     visitor: &'a V,
 }
 
+/// What one task found: its items in order (`done`'s chunks, then `items`),
+/// its counters and the cull's scratch. Joining tasks moves chunks, not
+/// items, so each item is copied once, into the final vector.
 struct Acc<T, S> {
     items: Vec<T>,
+    done: Vec<Vec<T>>,
     counters: Counters,
     scratch: S,
 }
@@ -125,15 +130,38 @@ impl<T, S: Default> Acc<T, S> {
     fn new() -> Self {
         Acc {
             items: Vec::new(),
+            done: Vec::new(),
             counters: Counters::default(),
             scratch: S::default(),
         }
     }
 
+    /// This task's items, then `o`'s.
     fn join(mut self, o: Acc<T, S>) -> Self {
-        self.items.extend(o.items);
+        self.flush();
+        self.done.extend(o.done);
+        if !o.items.is_empty() {
+            self.done.push(o.items);
+        }
         self.counters.add(&o.counters);
         self
+    }
+
+    fn flush(&mut self) {
+        if !self.items.is_empty() {
+            self.done.push(std::mem::take(&mut self.items));
+        }
+    }
+
+    /// Every item, in order, in one vector.
+    fn into_items(mut self) -> Vec<T> {
+        self.flush();
+        if self.done.len() == 1 {
+            return self.done.pop().unwrap_or_default();
+        }
+        let mut out = Vec::with_capacity(self.done.iter().map(Vec::len).sum());
+        self.done.into_iter().for_each(|chunk| out.extend(chunk));
+        out
     }
 }
 

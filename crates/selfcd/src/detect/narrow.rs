@@ -299,17 +299,50 @@ impl ElementPair {
     }
 }
 
-/// Sorts raw proximity contacts (each element pair is reported once, by its owners).
+/// Sorts raw proximity contacts (each element pair is reported once, by its
+/// owners, so the keys are unique and the order does not depend on the threads).
 pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
-    let mut out = ProximityContacts::default();
+    let (mut vt, mut ee) = (Vec::new(), Vec::new());
     for it in items {
         match it {
-            Near::Vt(x) => out.vertex_triangle.push(x),
-            Near::Ee(x) => out.edge_edge.push(x),
+            Near::Vt(x) => vt.push(x),
+            Near::Ee(x) => ee.push(x),
         }
     }
-    out.vertex_triangle
-        .sort_unstable_by_key(|x| (x.vertex, x.triangle));
-    out.edge_edge.sort_unstable_by_key(|x| x.edges);
+    let (vertex_triangle, edge_edge) = rayon::join(
+        || sorted_by_key(vt, |x: &VertexTriangle| (x.vertex, x.triangle)),
+        || sorted_by_key(ee, |x: &EdgeEdge| (x.edges[0], x.edges[1])),
+    );
+    ProximityContacts {
+        vertex_triangle,
+        edge_edge,
+    }
+}
+
+/// `items` in increasing order of their unique `key` (first, second): a
+/// counting sort on `first` (a vertex or edge id, so the buckets number at
+/// most the mesh's elements), then each bucket, a few items, by `second`.
+/// O(items + largest first id), against a comparison sort's log factor.
+fn sorted_by_key<T: Copy>(items: Vec<T>, key: impl Fn(&T) -> (u32, u32)) -> Vec<T> {
+    let Some(max) = items.iter().map(|x| key(x).0).max() else {
+        return items;
+    };
+    let mut start = vec![0u32; max as usize + 2];
+    for x in &items {
+        start[key(x).0 as usize + 1] += 1;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let mut fill = start.clone();
+    let mut out = items.clone();
+    for x in items {
+        let slot = &mut fill[key(&x).0 as usize];
+        out[*slot as usize] = x;
+        *slot += 1;
+    }
+    for w in start.windows(2) {
+        out[w[0] as usize..w[1] as usize].sort_unstable_by_key(|x| key(x).1);
+    }
     out
 }
