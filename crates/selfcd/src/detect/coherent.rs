@@ -518,7 +518,15 @@ impl SelfQueries {
                 thickness: gap,
             });
         }
-        pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        // By distance, then pair: integer keys (a distance is >= 0, so its
+        // bits order like it; the pair packs as kind, first id, second id).
+        pairs.par_sort_unstable_by_key(|&(d, p)| {
+            let (kind, a, b) = match p {
+                ElementPair::VertexTriangle(a, b) => (0u8, a, b),
+                ElementPair::EdgeEdge(a, b) => (1u8, a, b),
+            };
+            (d.to_bits(), kind, (a as u64) << 32 | b as u64)
+        });
         let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         self.candidates = Candidates {
             reference: x.to_vec(),
@@ -633,11 +641,7 @@ impl SelfQueries {
         let t0 = Instant::now();
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
-        let test = |p: ElementPair| {
-            let mut out = Vec::new();
-            near.test(p, &mut out);
-            out.pop()
-        };
+        let test = |p: ElementPair| near.test(p);
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
         let (prefix, covered) = c.covered(&self.motion, thickness, allowance);

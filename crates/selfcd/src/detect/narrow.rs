@@ -133,57 +133,57 @@ impl<'a> Proximity<'a> {
         Ok(())
     }
 
-    /// Appends `pair` to `out` when it is closer than the thickness (incident
+    /// The contact of `pair` when it is closer than the thickness (incident
     /// pairs never are). Every query path runs this same arithmetic, so cached
     /// and fresh queries give bit-identical contacts.
-    pub(crate) fn test(&self, pair: ElementPair, out: &mut Vec<Near>) {
+    pub(crate) fn test(&self, pair: ElementPair) -> Option<Near> {
         match pair {
-            ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t, out),
-            ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb, out),
+            ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t),
+            ElementPair::EdgeEdge(ea, eb) => self.edge_edge(ea, eb),
         }
     }
 
-    fn vertex_triangle(&self, v: u32, t: u32, out: &mut Vec<Near>) {
+    fn vertex_triangle(&self, v: u32, t: u32) -> Option<Near> {
         let tri = self.mesh.triangles()[t as usize];
         if tri.contains(&v) {
-            return;
+            return None;
         }
         let [a, b, c] = self.mesh.corners(self.positions, t as usize);
         let p = self.positions[v as usize];
         if hulls_apart(&[p], &[a, b, c], self.thickness) {
-            return;
+            return None;
         }
         let (d2, bary) = point_triangle_distance2(p, a, b, c);
-        if d2 < self.thickness * self.thickness {
-            out.push(Near::Vt(VertexTriangle {
+        (d2 < self.thickness * self.thickness).then(|| {
+            Near::Vt(VertexTriangle {
                 vertex: v,
                 triangle: t,
                 distance: d2.sqrt(),
                 bary,
-            }));
-        }
+            })
+        })
     }
 
-    fn edge_edge(&self, e0: u32, e1: u32, out: &mut Vec<Near>) {
+    fn edge_edge(&self, e0: u32, e1: u32) -> Option<Near> {
         // Fixed argument order, so the same pair always gives the same numbers.
         let (e0, e1) = (e0.min(e1), e0.max(e1));
         let edges = &self.mesh.topology().edges;
         let ([a, b], [c, d]) = (edges[e0 as usize], edges[e1 as usize]);
         if a == c || a == d || b == c || b == d {
-            return;
+            return None;
         }
         let p = |i: u32| self.positions[i as usize];
         if hulls_apart(&[p(a), p(b)], &[p(c), p(d)], self.thickness) {
-            return;
+            return None;
         }
         let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
-        if d2 < self.thickness * self.thickness {
-            out.push(Near::Ee(EdgeEdge {
+        (d2 < self.thickness * self.thickness).then(|| {
+            Near::Ee(EdgeEdge {
                 edges: [e0, e1],
                 distance: d2.sqrt(),
                 params: [s, t],
-            }));
-        }
+            })
+        })
     }
 }
 
@@ -196,7 +196,7 @@ impl LeafVisitor for Proximity<'_> {
             return; // the output guard: the query fails in check_output
         }
         let before = out.len();
-        for_each_owned_pair(self.mesh, a, b, |pair| self.test(pair, out));
+        for_each_owned_pair(self.mesh, a, b, |pair| out.extend(self.test(pair)));
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);
         }
