@@ -477,7 +477,7 @@ def continuous_sequence(inp: Input, mesh: selfcd.Mesh, reps: int, ipctk: Any,
 
         runners["ipctk"] = ipc
     times: dict[str, list[float]] = {k: [] for k in runners}
-    pairs = 0
+    pairs = extra = 0
     for rep in range(reps + 1):
         if rep == 1:
             reuses[:] = [0, 0]
@@ -487,13 +487,18 @@ def continuous_sequence(inp: Input, mesh: selfcd.Mesh, reps: int, ipctk: Any,
                 if rep:
                     times[k].append(t)
                 if k == "coherent" and rep == reps:
+                    # At thickness 0 the fresh query's swept certificate may drop
+                    # false positives the coherent one keeps: it must hold every
+                    # fresh pair, and any extra is counted.
                     fresh = selfcd.continuous_impacts(mesh, a, b)
-                    if pair_rows(found) != pair_rows(fresh):
-                        raise AssertionError(f"{inp.name}: SelfQueries.continuous differs from a fresh query")
+                    got, want = pair_rows(found), pair_rows(fresh)
+                    if any(not w <= g for g, w in zip(got, want)):
+                        raise AssertionError(f"{inp.name}: SelfQueries.continuous misses a pair of a fresh query")
+                    extra += sum(len(g - w) for g, w in zip(got, want))
                     pairs += sum(len(found[key]) for key in ("vertex_triangle", "edge_edge"))
             tick(f"{inp.name} continuous sequence {k}")
     row = {f"seq_{k}_ms": med_ms(v) for k, v in times.items()}
-    row.update(seq_steps=len(steps), seq_pairs=pairs, seq_builds=reuses[0], seq_reuses=reuses[1])
+    row.update(seq_steps=len(steps), seq_pairs=pairs, seq_extra=extra, seq_builds=reuses[0], seq_reuses=reuses[1])
     return row
 
 
@@ -550,7 +555,7 @@ def proximity_table(rows: list[dict[str, Any]]) -> str:
 def continuous_table(rows: list[dict[str, Any]]) -> str:
     head = ["input", "triangles", "one step: selfcd ms", "ipctk ms", "selfcd/ipctk", "selfcd pairs, first toi",
             "ipctk candidates, step", "sequence, per step: selfcd coherent ms", "selfcd fresh ms", "ipctk ms",
-            "coherent/ipctk", "fresh/ipctk", "steps, pairs, sets built/reused"]
+            "coherent/ipctk", "fresh/ipctk", "steps, pairs (+ coherent's extra false positives), sets built/reused"]
     body = []
     for r in rows:
         ip, sip = r.get("ipctk_ms", float("nan")), r.get("seq_ipctk_ms", float("nan"))
@@ -559,7 +564,7 @@ def continuous_table(rows: list[dict[str, Any]]) -> str:
                      f"{r['selfcd_pairs']}, {r['selfcd_first_toi']:.4g}", peer, ms(r["seq_coherent_ms"]),
                      ms(r["seq_fresh_ms"]), ms(sip), ratio(r["seq_coherent_ms"], sip),
                      ratio(r["seq_fresh_ms"], sip),
-                     f"{r['seq_steps']}, {r['seq_pairs']}, {r['seq_builds']}/{r['seq_reuses']}"])
+                     f"{r['seq_steps']}, {r['seq_pairs']} (+{r.get('seq_extra', 0)}), {r['seq_builds']}/{r['seq_reuses']}"])
     return table(head, body)
 
 

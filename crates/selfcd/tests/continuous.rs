@@ -119,6 +119,92 @@ fn bvh_query_matches_the_element_pair_loop() {
     }
 }
 
+/// Smallest distance of `pair` over the step, sampled at `n + 1` times.
+fn sampled_min_distance(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    pair: ElementPair,
+    n: usize,
+) -> f64 {
+    (0..=n)
+        .map(|k| {
+            let t = k as f64 / n as f64;
+            let x: Vec<DVec3> = x0.iter().zip(x1).map(|(a, b)| *a + (*b - *a) * t).collect();
+            pair.distance_within(mesh, &x, f64::INFINITY)
+                .unwrap_or(f64::INFINITY)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// At thickness 0 the swept certificate skips patches that stay free of
+/// contact: the answer is the element-pair loop's, less only pairs that the
+/// additive CCD reported within its resolution but that never touch (their
+/// sampled distance stays well above zero). Steps that bend, twist, move
+/// rigidly, stand still, and fold, roll or crumple through themselves.
+#[test]
+fn swept_certificate_keeps_every_contact() {
+    use Deformation::*;
+    let m = mesh(12);
+    let mut all = steps();
+    all.extend([
+        (
+            "bend",
+            Flat,
+            Crumple {
+                amplitude: 0.05,
+                wavelength: 0.5,
+                seed: 1,
+            },
+        ),
+        ("twist", Twist { turns: 0.1 }, Twist { turns: 0.4 }),
+        (
+            "still",
+            Fold {
+                angle: 0.5 * PI,
+                radius: 0.05,
+            },
+            Fold {
+                angle: 0.5 * PI,
+                radius: 0.05,
+            },
+        ),
+        (
+            "noise",
+            Flat,
+            Noise {
+                amplitude: 0.004,
+                seed: 5,
+            },
+        ),
+    ]);
+    for (name, a, b) in all {
+        let (x0, mut x1) = (a.apply(m.rest()), b.apply(m.rest()));
+        if name == "twist" {
+            // And a rigid motion on top: a turn about z and a shift.
+            let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+            x1.iter_mut().for_each(|p| {
+                *p = DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z) + DVec3::splat(0.7)
+            });
+        }
+        let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
+        let got = flat(&det.continuous(&x0, &x1, 0.0).unwrap());
+        let want = naive(&m, &x0, &x1, 0.0);
+        for g in &got {
+            assert!(
+                want.contains(g),
+                "{name}: {g:?} not in the element-pair loop"
+            );
+        }
+        for w in want.iter().filter(|w| !got.contains(w)) {
+            let d = sampled_min_distance(&m, &x0, &x1, w.0, 2000);
+            assert!(d > 1e-4, "{name}: {w:?} dropped but comes within {d}");
+        }
+        let touches = name != "fold-close" && !["bend", "twist", "still", "noise"].contains(&name);
+        assert_eq!(!got.is_empty(), touches, "{name}: contact found?");
+    }
+}
+
 #[test]
 fn no_intersection_is_reached_before_the_reported_time() {
     let m = mesh(11);

@@ -30,7 +30,8 @@
 use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
-    loops_meet_only_where_shared, simple_ccw_loop, star_about, LoopScratch, Plane, Seg,
+    loops_meet_only_where_shared, simple_ccw_loop, star_about, swept_simple_ccw_loop,
+    swept_star_about, LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -161,20 +162,12 @@ impl<'a> ContourCull<'a> {
     /// loops meet only where the patches do.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
-        let (Some(ea), Some(eb)) = (p.euler_of(a), p.euler_of(b)) else {
+        let Some(glued) = union_disk(p, a, b, &mut s.merged) else {
             return false;
         };
-        let (ka, kb) = (p.contour_of(a), p.contour_of(b));
-        s.merged.reserve(ka.len() + kb.len());
-        let info = merge_contours(ka, kb, &mut s.merged);
-        let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
-        let euler = ea + eb - shared_v + info.shared_edges as i32;
-        if info.conflict || euler != 1 {
-            return false;
-        }
         let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         let plane = Plane::new(axis, box_a.union(box_b).center());
-        if info.shared_edges > 0 {
+        if glued {
             // Patches glued along edges: the union is one disk, tested as a node is.
             return self.disk_is_height_field(
                 &s.merged,
@@ -189,6 +182,21 @@ impl<'a> ContourCull<'a> {
             && self.disk_is_height_field(p.contour_of(b), &plane, cb, &mut s.segs_b, &mut s.loops)
             && loops_meet_only_where_shared(&s.segs, &s.segs_b, &mut s.loops)
     }
+}
+
+/// The topology of the union of adjacent disjoint patches `a` and `b`, its
+/// contour written to `merged`: `Some(true)` when they are glued along edges
+/// into one disk (Euler characteristic 1, consistent winding), `Some(false)`
+/// when they are two disks touching only at vertices, `None` otherwise (no
+/// certificate).
+fn union_disk(p: &Patches, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool> {
+    let (ea, eb) = (p.euler_of(a)?, p.euler_of(b)?);
+    let (ka, kb) = (p.contour_of(a), p.contour_of(b));
+    merged.reserve(ka.len() + kb.len());
+    let info = merge_contours(ka, kb, merged);
+    let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
+    let euler = ea + eb - shared_v + info.shared_edges as i32;
+    (!info.conflict && euler == 1).then_some(info.shared_edges > 0)
 }
 
 impl Cull for ContourCull<'_> {
@@ -218,6 +226,93 @@ impl Cull for ContourCull<'_> {
         let (ca, cb) = (&self.bvh.cones[a as usize], &self.bvh.cones[b as usize]);
         c.contour_tests += 1;
         let ok = self.union_is_height_field(a, b, ca.merge(cb).axis, s);
+        c.contour_fails += !ok as u64;
+        c.pair_culls += ok as u64;
+        ok
+    }
+}
+
+/// The certificate over a linear motion `x0 -> x1` (continuous queries with
+/// thickness 0): with the hierarchy fitted by [`Bvh::refit_swept_cones`],
+/// a node's cone holds its normals at every time of the step. If it is
+/// positive, the patch is a disk and its contour stays star-shaped about one
+/// fixed centre along the cone's axis for the whole step
+/// ([`swept_star_about`]), the theorem of the module doc holds at every
+/// time: no two elements of the patch that share no vertex ever touch during
+/// the step, so no vertex-triangle or edge-edge pair of it has a contact.
+/// Adjacent pairs get the same test on their union when they are glued along
+/// edges (pairs touching only at vertices are not certified).
+pub struct SweptContourCull<'a> {
+    bvh: &'a Bvh,
+    mesh: &'a Mesh,
+    x0: &'a [DVec3],
+    x1: &'a [DVec3],
+    cones: ConeCull<'a>,
+}
+
+impl<'a> SweptContourCull<'a> {
+    /// Certificates for `bvh` fitted by [`Bvh::refit_swept_cones`] to `x0 -> x1`.
+    pub fn new(bvh: &'a Bvh, mesh: &'a Mesh, x0: &'a [DVec3], x1: &'a [DVec3]) -> Self {
+        SweptContourCull {
+            bvh,
+            mesh,
+            x0,
+            x1,
+            cones: ConeCull {
+                cones: &bvh.cones,
+                patches: &bvh.patches,
+            },
+        }
+    }
+
+    /// Does the disk with `contour` stay a height field along `plane`'s
+    /// normal for the whole step (its cone already positive)?
+    fn disk_stays_height_field(
+        &self,
+        contour: &[u32],
+        plane: &Plane,
+        s: &mut ContourScratch,
+    ) -> bool {
+        project_contour(self.mesh, self.x0, contour, plane, &mut s.segs);
+        project_contour(self.mesh, self.x1, contour, plane, &mut s.segs_b);
+        swept_star_about(&s.segs, &s.segs_b, [0.0; 2])
+            || swept_simple_ccw_loop(&s.segs, &s.segs_b, &mut s.loops)
+    }
+}
+
+impl Cull for SweptContourCull<'_> {
+    type Scratch = ContourScratch;
+
+    fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
+        let (bvh, p) = (self.bvh, &self.bvh.patches);
+        let cone = &bvh.cones[n as usize];
+        if !cone.is_positive() {
+            return false;
+        }
+        c.contour_tests += 1;
+        let ok = p.euler_of(n) == Some(1) && {
+            let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
+            self.disk_stays_height_field(p.contour_of(n), &plane, s)
+        };
+        c.contour_fails += !ok as u64;
+        c.self_culls += ok as u64;
+        ok
+    }
+
+    fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
+        if !self.cones.adjacent_positive(a, b) {
+            return false;
+        }
+        c.contour_tests += 1;
+        let bvh = self.bvh;
+        let ok = union_disk(&bvh.patches, a, b, &mut s.merged) == Some(true) && {
+            let axis = bvh.cones[a as usize].merge(&bvh.cones[b as usize]).axis;
+            let center = bvh.boxes[a as usize].union(&bvh.boxes[b as usize]).center();
+            let merged = std::mem::take(&mut s.merged);
+            let ok = self.disk_stays_height_field(&merged, &Plane::new(axis, center), s);
+            s.merged = merged;
+            ok
+        };
         c.contour_fails += !ok as u64;
         c.pair_culls += ok as u64;
         ok

@@ -33,6 +33,17 @@ impl Bvh {
         });
     }
 
+    /// Refits the boxes to the swept triangles, as [`refit_swept`](Self::refit_swept),
+    /// and the cones to their normals over the whole motion
+    /// ([`NormalCone::of_swept_triangle`]), for the swept certificate.
+    pub fn refit_swept_cones(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
+        self.refit_with(|t| {
+            let (c0, c1) = (mesh.corners(x0, t), mesh.corners(x1, t));
+            let b = Aabb::from_points(&c0).union(&Aabb::from_points(&c1));
+            (b, NormalCone::of_swept_triangle(c0, c1))
+        });
+    }
+
     /// Sets every leaf's box and cone from `leaf(triangle)`, then merges upwards.
     fn refit_with(&mut self, leaf: impl Fn(usize) -> (Aabb, NormalCone) + Sync) {
         let n = self.n_leaves;

@@ -674,7 +674,10 @@ impl SelfQueries {
 
     /// Every element pair that may come within `thickness` (>= 0) while the
     /// mesh moves linearly from `x0` to `x1`: equal to
-    /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous).
+    /// [`BvhDetector::continuous`](super::hierarchy::BvhDetector::continuous)
+    /// for a positive thickness; at thickness 0 that query also skips patches
+    /// its swept certificate proves free of contact, so this answer holds
+    /// its pairs and at most some of the additive CCD's false positives.
     /// A query repeating the last one (same `x0` and `thickness`) with few end
     /// positions changed re-tests only the triangle pairs touching them
     /// (`repeat_continuous`); otherwise the answer

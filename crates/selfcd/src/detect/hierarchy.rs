@@ -43,6 +43,11 @@ impl BvhDetector {
         self.bvh.refit_swept(&self.mesh, x0, x1);
     }
 
+    /// Fits boxes and cones to the swept triangles ([`Bvh::refit_swept_cones`]).
+    pub(crate) fn refit_swept_cones(&mut self, x0: &[DVec3], x1: &[DVec3]) {
+        self.bvh.refit_swept_cones(&self.mesh, x0, x1);
+    }
+
     /// Refits boxes and cones to `positions` (already checked).
     pub fn refit(&mut self, positions: &[DVec3]) {
         self.bvh.refit(&self.mesh, positions);

@@ -145,6 +145,59 @@ impl NormalCone {
         }
     }
 
+    /// The cone of triangle (a, b, c)'s normal over the whole of a linear
+    /// motion from corners `x0` to `x1`. With edges `e_k(t) = e_k + t d_k`, the
+    /// normal `n(t) = e1(t) x e2(t)` is quadratic in t: in the Bernstein basis
+    /// of [0, 1] its control vectors are `n(0)`, `n(0) + (e1 x d2 + d1 x e2) / 2`
+    /// and `n(1)`, and `n(t)` is a positive combination of them. So a cone
+    /// holding all three (each widened by its rounding) holds `n(t)` for every
+    /// t; if it is positive, no `n(t)` vanishes. A control vector too short
+    /// for its rounding gives the full cone.
+    pub fn of_swept_triangle(x0: [DVec3; 3], x1: [DVec3; 3]) -> NormalCone {
+        let (e1, e2) = (x0[1] - x0[0], x0[2] - x0[0]);
+        let (f1, f2) = (x1[1] - x1[0], x1[2] - x1[0]);
+        let (d1, d2) = (f1 - e1, f2 - e2);
+        let n0 = e1.cross(e2);
+        let mid = n0 + (e1.cross(d2) + d1.cross(e2)) * 0.5;
+        let n1 = f1.cross(f2);
+        // Rounding (per component): the ends' normals as in `of_triangle`,
+        // within 4 eps |e1| |e2| (resp. |f1| |f2|); the middle one also
+        // carries the rounding of d = f - e and two more cross products,
+        // within 16 eps (|e1| + |f1|) (|e2| + |f2|) all told. A triangle that
+        // does not move has d = 0 exactly and its middle vector is n(0).
+        let eps8 = 8.0 * f64::EPSILON;
+        let (err0, err1) = (
+            eps8 * e1.length() * e2.length(),
+            eps8 * f1.length() * f2.length(),
+        );
+        let err_mid = if d1 == DVec3::ZERO && d2 == DVec3::ZERO {
+            err0
+        } else {
+            2.0 * eps8 * (e1.length() + f1.length()) * (e2.length() + f2.length())
+        };
+        let (c0, c1, c2) = (
+            Self::of_vector(n0, err0),
+            Self::of_vector(mid, err_mid),
+            Self::of_vector(n1, err1),
+        );
+        c0.merge(&c1).merge(&c2)
+    }
+
+    /// The cone of the directions within `err` (absolute) of vector `n`, or
+    /// the full cone when `n` is not 8 times longer than `err`.
+    fn of_vector(n: DVec3, err: f64) -> NormalCone {
+        let len2 = n.length_squared();
+        if !(len2 > 64.0 * err * err) {
+            return NormalCone::FULL;
+        }
+        // An angle of at most asin(x) <= 1.06 x for x = err / |n| <= 1/8.
+        let inv = 1.0 / len2.sqrt();
+        NormalCone {
+            axis: n * inv,
+            quarter: Angle::ZERO.widen(0.5 * 1.06 * err * inv),
+        }
+    }
+
     /// A cone from an axis (normalised here) and a half-angle in radians.
     pub fn new(axis: DVec3, half_angle: f64) -> NormalCone {
         if half_angle >= std::f64::consts::PI || axis.length_squared() == 0.0 {
@@ -235,6 +288,14 @@ impl NormalCone {
         }
         let (h1, h2) = (self.half(), o.half());
         let d = Angle::between(self.axis, o.axis);
+        if d.s == 0.0 && d.c > 0.0 {
+            // The same axis (the sums below could round past the wider half).
+            return if h2.le(h1) {
+                Merged::First
+            } else {
+                Merged::Second
+            };
+        }
         let (dh1, dh2) = (d.add(h1), d.add(h2));
         if !dh2.at_least_pi() && dh2.le(h1) {
             return Merged::First;

@@ -70,6 +70,36 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
     crossings == 1
 }
 
+/// The star test over a linear motion: `start[k]` moving to `end[k]` (the
+/// same directed edges, projected at the start and end of the motion), with
+/// `c` fixed. Passes when [`star_about`] passes at the start and `c` stays
+/// strictly left of every edge at every time: `cross(a(t) - c, b(t) - c)`
+/// is quadratic in t with Bernstein coefficients `cross(A0, B0)`,
+/// `(cross(A0, B1) + cross(A1, B0)) / 2` and `cross(A1, B1)` (A, B the ends
+/// relative to c), all above the star test's margin. The winding number is
+/// an integer that cannot change while c stays off the loop, so it is 1 at
+/// every time, and the loop is star-shaped about c throughout.
+pub fn swept_star_about(start: &[Seg], end: &[Seg], c: [f64; 2]) -> bool {
+    if start.len() != end.len() || !star_about(start, c) {
+        return false;
+    }
+    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
+    let rel = |p: [f64; 2]| [p[0] - c[0], p[1] - c[1]];
+    let len2 = |p: [f64; 2]| p[0] * p[0] + p[1] * p[1];
+    start.iter().zip(end).all(|(s, e)| {
+        let (a0, b0, a1, b1) = (rel(s.p[0]), rel(s.p[1]), rel(e.p[0]), rel(e.p[1]));
+        let scale = len2(a0).max(len2(b0)).max(len2(a1)).max(len2(b1));
+        let margin = 1e-9 * scale;
+        let mid = 0.5 * (cross(a0, b1) + cross(a1, b0));
+        // (NaN or infinite values never pass.)
+        scale >= MIN_SCALE2
+            && scale.is_finite()
+            && cross(a0, b0) > margin
+            && mid > margin
+            && cross(a1, b1) > margin
+    })
+}
+
 /// Smallest squared length the margins below are taken relative to. The
 /// margins (1e-9 and 1e-12 of a squared length) then stay above 1e-282, far
 /// above the absolute error underflow adds to a product (2^-1074): below it
@@ -231,6 +261,84 @@ pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
     all_pairs_clear(segs, None, 1e-12 * ext2, scratch)
 }
 
+/// Is the projected contour one simple counter-clockwise loop at every time
+/// of a linear motion from `start` to `end` (the same directed edges at both
+/// ends)? [`simple_ccw_loop`]'s conditions at the start, then every pair of
+/// edges whose boxes over the motion meet must stay clear for the whole
+/// motion ([`edges_stay_clear`]): a loop simple at the start that never has
+/// two edges meet where the mesh does not join them stays simple, and its
+/// orientation cannot flip. Refuses what it cannot decide.
+pub fn swept_simple_ccw_loop(start: &[Seg], end: &[Seg], scratch: &mut LoopScratch) -> bool {
+    if start.len() != end.len() || !simple_ccw_loop(start, scratch) {
+        return false;
+    }
+    let ext2 = extent2(start).max(extent2(end));
+    if !(ext2.is_finite()) {
+        return false;
+    }
+    let eps = 1e-12 * ext2;
+    pairs_clear(
+        start,
+        None,
+        Some(end),
+        |i, j| edges_stay_clear([&start[i], &end[i]], [&start[j], &end[j]], eps),
+        scratch,
+    )
+}
+
+/// Bernstein coefficients over t in [0, 1] of `f(U(t), V(t))` for a bilinear
+/// `f` (cross or dot) of vectors moving linearly from `u0, v0` to `u1, v1`.
+#[inline]
+fn bernstein(
+    f: impl Fn([f64; 2], [f64; 2]) -> f64,
+    [u0, u1]: [[f64; 2]; 2],
+    [v0, v1]: [[f64; 2]; 2],
+) -> [f64; 3] {
+    [f(u0, v0), 0.5 * (f(u0, v1) + f(u1, v0)), f(u1, v1)]
+}
+
+/// Two moving edges (each `[at start, at end]`) meet at no time of the
+/// motion except where the mesh joins them (the same edge, or one shared
+/// vertex without folding back): like [`edges_clear`], with every
+/// orientation value's Bernstein coefficients (so its value at every time)
+/// beyond the margin `eps`.
+fn edges_stay_clear(a: [&Seg; 2], b: [&Seg; 2], eps: f64) -> bool {
+    let cross = |u: [f64; 2], v: [f64; 2]| u[0] * v[1] - u[1] * v[0];
+    let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
+    let sub = |p: [f64; 2], q: [f64; 2]| [p[0] - q[0], p[1] - q[1]];
+    // The vector from point i of edge x to point j of edge y, at both ends.
+    let vec = |x: [&Seg; 2], i: usize, y: [&Seg; 2], j: usize| {
+        [sub(y[0].p[j], x[0].p[i]), sub(y[1].p[j], x[1].p[i])]
+    };
+    let above = |c: [f64; 3]| c.iter().all(|&x| x > eps);
+    let below = |c: [f64; 3]| c.iter().all(|&x| x < -eps);
+    let shared = |v: u32| b[0].v.contains(&v);
+    match (shared(a[0].v[0]), shared(a[0].v[1])) {
+        (true, true) => true,
+        (false, false) => {
+            // Both ends of one edge stay strictly on one side of the other's line.
+            let one_side = |s: [&Seg; 2], t: [&Seg; 2]| {
+                let dir = vec(s, 0, s, 1);
+                let (p, q) = (
+                    bernstein(cross, dir, vec(s, 0, t, 0)),
+                    bernstein(cross, dir, vec(s, 0, t, 1)),
+                );
+                (above(p) && above(q)) || (below(p) && below(q))
+            };
+            one_side(a, b) || one_side(b, a)
+        }
+        (sa0, _) => {
+            // One shared vertex: the edges leave it in directions that never
+            // become the same (never collinear, or always more than 90 degrees apart).
+            let ia = if sa0 { 0 } else { 1 };
+            let ib = if b[0].v[0] == a[0].v[ia] { 0 } else { 1 };
+            let (da, db) = (vec(a, ia, a, 1 - ia), vec(b, ib, b, 1 - ib));
+            let c = bernstein(cross, da, db);
+            above(c) || below(c) || below(bernstein(dot, da, db))
+        }
+    }
+}
+
 /// Every pair of edges (one from `a`, one from `b`; or two distinct edges of
 /// `a` when `b` is None) is clear (see `edges_clear`). Edges whose extents
 /// along a sweep direction, or whose closed boxes, are apart are clear, so
@@ -241,6 +349,23 @@ pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
 /// met exactly once. A loop crosses each place along the sweep a few times
 /// only, so this is O(m) expected. Non-finite coordinates are never clear.
 fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScratch) -> bool {
+    let get = |i: usize| match b {
+        Some(b) if i >= a.len() => &b[i - a.len()],
+        _ => &a[i],
+    };
+    pairs_clear(a, b, None, |i, j| edges_clear(get(i), get(j), eps), scratch)
+}
+
+/// [`all_pairs_clear`] with the test `clear(i, j)` on edge ids (`a`'s, then
+/// `b`'s), and, when `a_end` is given, `a`'s edges moving linearly to
+/// `a_end` (same order; `b` must be None): the boxes then hold both ends.
+fn pairs_clear(
+    a: &[Seg],
+    b: Option<&[Seg]>,
+    a_end: Option<&[Seg]>,
+    clear: impl Fn(usize, usize) -> bool,
+    scratch: &mut LoopScratch,
+) -> bool {
     let m = a.len() + b.map_or(0, <[Seg]>::len);
     let get = |i: usize| match b {
         Some(b) if i >= a.len() => &b[i - a.len()],
@@ -261,42 +386,60 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
     boxes.clear();
     spans.clear();
     let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
-    for s in a.iter().chain(b.unwrap_or(&[])) {
+    for (i, s) in a.iter().chain(b.unwrap_or(&[])).enumerate() {
         let [[x0, y0], [x1, y1]] = s.p;
         // A NaN or infinite coordinate (or a sum overflowing) is never clear.
         if !(x0 + y0 + x1 + y1).is_finite() {
             return false;
         }
-        boxes.push(EdgeBox {
+        let mut bx = EdgeBox {
             lo: [min(x0, x1), min(y0, y1)],
             hi: [max(x0, x1), max(y0, y1)],
-        });
+        };
+        if let Some(e) = a_end.and_then(|e| e.get(i)) {
+            let [[x0, y0], [x1, y1]] = e.p;
+            if !(x0 + y0 + x1 + y1).is_finite() {
+                return false;
+            }
+            bx.lo = [min(bx.lo[0], min(x0, x1)), min(bx.lo[1], min(y0, y1))];
+            bx.hi = [max(bx.hi[0], max(x0, x1)), max(bx.hi[1], max(y0, y1))];
+        }
+        boxes.push(bx);
     }
     let (ba, bb) = boxes.split_at(a.len());
     match b {
         // Few edges: every pair's boxes, which is cheaper than bucketing.
         None if m <= SMALL => {
             return (0..m).all(|i| {
-                let (x, s) = (&ba[i], &a[i]);
+                let x = &ba[i];
                 ba[i + 1..]
                     .iter()
-                    .zip(&a[i + 1..])
-                    .all(|(y, t)| !x.meets(y) || edges_clear(s, t, eps))
+                    .enumerate()
+                    .all(|(k, y)| !x.meets(y) || clear(i, i + 1 + k))
             })
         }
-        Some(b) if m <= SMALL => {
-            return ba.iter().zip(a).all(|(x, s)| {
+        Some(_) if m <= SMALL => {
+            return ba.iter().enumerate().all(|(i, x)| {
                 bb.iter()
-                    .zip(b)
-                    .all(|(y, t)| !x.meets(y) || edges_clear(s, t, eps))
+                    .enumerate()
+                    .all(|(k, y)| !x.meets(y) || clear(i, a.len() + k))
             })
         }
         _ => {}
     }
-    for i in 0..m {
-        let [[x0, y0], [x1, y1]] = get(i).p;
-        let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
-        let span = (min(u, v), max(u, v));
+    for (i, bx) in boxes.iter().enumerate() {
+        // D's components are positive: the box's extent along D.
+        let span = (
+            D[0] * bx.lo[0] + D[1] * bx.lo[1],
+            D[0] * bx.hi[0] + D[1] * bx.hi[1],
+        );
+        debug_assert!(
+            a_end.is_some() || {
+                let [[x0, y0], [x1, y1]] = get(i).p;
+                let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
+                span.0 <= min(u, v) && max(u, v) <= span.1
+            }
+        );
         first = min(first, span.0);
         last = max(last, span.1);
         spans.push(span);
@@ -338,7 +481,7 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
             if lj < lo || lj > hi || (lj == lo && j <= i) || !wanted(i, j) {
                 continue;
             }
-            if boxes[i].meets(&boxes[j]) && !edges_clear(get(i), get(j), eps) {
+            if boxes[i].meets(&boxes[j]) && !clear(i, j) {
                 return false;
             }
         }
