@@ -93,9 +93,41 @@ fn swept_apart(pair: StencilKind, x0: &[DVec3; 4], x1: &[DVec3; 4], thickness: f
     hulls_apart(&[la, ha], &[lb, hb], thickness + 2.0 * RESOLUTION * diag)
 }
 
+/// True when the stencil's four points are never coplanar during the motion,
+/// so that (thickness 0) the pair never touches: a vertex on a triangle, or
+/// two touching edges, are coplanar. With `U, V, W` the vectors from point 0
+/// to points 1, 2, 3, each linear in t, `det(U, V, W)` is cubic in t with
+/// Bernstein coefficients `det` of the ends' vectors averaged over the ways
+/// of taking k of them from the end (k = 0..3); all four beyond their
+/// rounding, with one sign, keep it off zero on [0, 1] (Tang et al.'s
+/// non-penetration filter). The sliding near-contacts that make the additive
+/// iteration slow (a gap far below the motion) are decided here at once.
+fn never_coplanar(x0: &[DVec3; 4], x1: &[DVec3; 4]) -> bool {
+    let ends = |x: &[DVec3; 4]| [x[1] - x[0], x[2] - x[0], x[3] - x[0]];
+    let (e0, e1) = (ends(x0), ends(x1));
+    let det = |pick: [usize; 3]| {
+        let v = |k: usize| if pick[k] == 0 { e0[k] } else { e1[k] };
+        v(0).dot(v(1).cross(v(2)))
+    };
+    let b = [
+        det([0, 0, 0]),
+        (det([1, 0, 0]) + det([0, 1, 0]) + det([0, 0, 1])) / 3.0,
+        (det([1, 1, 0]) + det([1, 0, 1]) + det([0, 1, 1])) / 3.0,
+        det([1, 1, 1]),
+    ];
+    // Each determinant of vectors no longer than L_k (the vectors carry the
+    // rounding of one subtraction) is within about 10 eps L_0 L_1 L_2 of the
+    // exact value; 32 eps covers that and the averaging.
+    let l = |k: usize| e0[k].length().max(e1[k].length());
+    let err = 32.0 * f64::EPSILON * l(0) * l(1) * l(2);
+    // (NaN and infinite values never pass.)
+    err.is_finite() && (b.iter().all(|&x| x > err) || b.iter().all(|&x| x < -err))
+}
+
 /// First time t in [0, 1] at which the pair, moving linearly from `x0` to `x1`,
 /// comes within distance `thickness` (>= 0). Returns `None` when it stays farther
-/// than `thickness` (plus `RESOLUTION` of the initial gap) for the whole step,
+/// than `thickness` (plus `RESOLUTION` of the initial gap) for the whole step, or
+/// (thickness 0) when its four points are never coplanar, so it never touches;
 /// `Some(0.0)` when it starts within `thickness`, and otherwise a time no later than
 /// the true time of impact.
 pub fn time_of_impact(
@@ -104,7 +136,7 @@ pub fn time_of_impact(
     x1: [DVec3; 4],
     thickness: f64,
 ) -> Option<f64> {
-    if swept_apart(pair, &x0, &x1, thickness) {
+    if swept_apart(pair, &x0, &x1, thickness) || (thickness == 0.0 && never_coplanar(&x0, &x1)) {
         return None;
     }
     let p: [DVec3; 4] = std::array::from_fn(|i| x1[i] - x0[i]);
@@ -172,6 +204,24 @@ mod tests {
             time_of_impact(StencilKind::VertexTriangle, miss, miss1, 0.0),
             None
         );
+    }
+
+    #[test]
+    fn sliding_just_above_a_triangle_never_touches() {
+        // A vertex 1e-9 above a triangle slides across it: never coplanar, no
+        // contact (the additive iteration would take ~1e9 steps to say so).
+        let tri = [v(0., 0., 0.), v(1., 0., 0.), v(0., 1., 0.)];
+        let x0 = [v(-1.0, 0.2, 1e-9), tri[0], tri[1], tri[2]];
+        let x1 = [v(2.0, 0.2, 1e-9), tri[0], tri[1], tri[2]];
+        assert!(never_coplanar(&x0, &x1));
+        assert_eq!(
+            time_of_impact(StencilKind::VertexTriangle, x0, x1, 0.0),
+            None
+        );
+        // Dipping to the plane and back: not decided by the filter, and found.
+        let x1 = [v(2.0, 0.2, -1e-9), tri[0], tri[1], tri[2]];
+        assert!(!never_coplanar(&x0, &x1));
+        assert!(time_of_impact(StencilKind::VertexTriangle, x0, x1, 0.0).is_some());
     }
 
     #[test]
