@@ -24,7 +24,9 @@ impl Bvh {
     }
 
     /// Refits the boxes to the triangles swept linearly from `x0` to `x1` (for
-    /// continuous queries); cones become full, so no cone culling applies.
+    /// continuous queries with a thickness); cones become full, so no cone
+    /// culling applies. [`refit_swept_cones`](Self::refit_swept_cones) fits
+    /// the cones too, for the swept certificate at thickness 0.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
         self.refit_with(|t| {
             let b = Aabb::from_points(&mesh.corners(x0, t))

@@ -180,7 +180,10 @@ impl NormalCone {
             Self::of_vector(mid, err_mid),
             Self::of_vector(n1, err1),
         );
-        c0.merge(&c1).merge(&c2)
+        // Equal cones (a triangle that does not move) are not merged: the
+        // merge of two cones on one axis can round to the full cone.
+        let merge = |a: NormalCone, b: NormalCone| if a == b { a } else { a.merge(&b) };
+        merge(merge(c0, c1), c2)
     }
 
     /// The cone of the directions within `err` (absolute) of vector `n`, or
@@ -288,14 +291,6 @@ impl NormalCone {
         }
         let (h1, h2) = (self.half(), o.half());
         let d = Angle::between(self.axis, o.axis);
-        if d.s == 0.0 && d.c > 0.0 {
-            // The same axis (the sums below could round past the wider half).
-            return if h2.le(h1) {
-                Merged::First
-            } else {
-                Merged::Second
-            };
-        }
         let (dh1, dh2) = (d.add(h1), d.add(h2));
         if !dh2.at_least_pi() && dh2.le(h1) {
             return Merged::First;

@@ -428,18 +428,17 @@ fn pairs_clear(
         _ => {}
     }
     for (i, bx) in boxes.iter().enumerate() {
-        // D's components are positive: the box's extent along D.
-        let span = (
-            D[0] * bx.lo[0] + D[1] * bx.lo[1],
-            D[0] * bx.hi[0] + D[1] * bx.hi[1],
-        );
-        debug_assert!(
-            a_end.is_some() || {
-                let [[x0, y0], [x1, y1]] = get(i).p;
-                let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
-                span.0 <= min(u, v) && max(u, v) <= span.1
-            }
-        );
+        let span = if a_end.is_some() {
+            // D's components are positive: the extent of the box over the motion.
+            (
+                D[0] * bx.lo[0] + D[1] * bx.lo[1],
+                D[0] * bx.hi[0] + D[1] * bx.hi[1],
+            )
+        } else {
+            let [[x0, y0], [x1, y1]] = get(i).p;
+            let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
+            (min(u, v), max(u, v))
+        };
         first = min(first, span.0);
         last = max(last, span.1);
         spans.push(span);
