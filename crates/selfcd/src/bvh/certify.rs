@@ -199,24 +199,37 @@ fn union_disk(p: &Patches, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool
     (!info.conflict && euler == 1).then_some(info.shared_edges > 0)
 }
 
+/// The self-certificate of node `n` (module doc): a positive cone, a disk
+/// (Euler characteristic 1), and `loop_test` passing on its contour projected
+/// along the cone's axis about its box centre; counted in `c`.
+fn disk_certified(
+    bvh: &Bvh,
+    n: u32,
+    c: &mut Counters,
+    loop_test: impl FnOnce(&[u32], &Plane) -> bool,
+) -> bool {
+    let cone = &bvh.cones[n as usize];
+    if !cone.is_positive() {
+        return false;
+    }
+    c.contour_tests += 1;
+    let p = &bvh.patches;
+    let ok = p.euler_of(n) == Some(1) && {
+        let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
+        loop_test(p.contour_of(n), &plane)
+    };
+    c.contour_fails += !ok as u64;
+    c.self_culls += ok as u64;
+    ok
+}
+
 impl Cull for ContourCull<'_> {
     type Scratch = ContourScratch;
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        let (bvh, p) = (self.bvh, &self.bvh.patches);
-        let cone = &bvh.cones[n as usize];
-        if !cone.is_positive() {
-            return false;
-        }
-        c.contour_tests += 1;
-        let ok = p.euler_of(n) == Some(1) && {
-            let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
-            let contour = p.contour_of(n);
-            self.disk_is_height_field(contour, &plane, [0.0; 2], &mut s.segs, &mut s.loops)
-        };
-        c.contour_fails += !ok as u64;
-        c.self_culls += ok as u64;
-        ok
+        disk_certified(self.bvh, n, c, |contour, plane| {
+            self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
+        })
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
@@ -284,19 +297,9 @@ impl Cull for SweptContourCull<'_> {
     type Scratch = ContourScratch;
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        let (bvh, p) = (self.bvh, &self.bvh.patches);
-        let cone = &bvh.cones[n as usize];
-        if !cone.is_positive() {
-            return false;
-        }
-        c.contour_tests += 1;
-        let ok = p.euler_of(n) == Some(1) && {
-            let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
-            self.disk_stays_height_field(p.contour_of(n), &plane, s)
-        };
-        c.contour_fails += !ok as u64;
-        c.self_culls += ok as u64;
-        ok
+        disk_certified(self.bvh, n, c, |contour, plane| {
+            self.disk_stays_height_field(contour, plane, s)
+        })
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
