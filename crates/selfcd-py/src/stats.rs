@@ -28,6 +28,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("pair_culls", U(s.pair_culls)),
         ("contour_tests", U(s.contour_tests)),
         ("contour_fails", U(s.contour_fails)),
+        ("certificates_reused", U(s.certificates_reused)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("primitive_tests", U(s.primitive_tests)),
         ("filter_decisions", U(s.filter_decisions)),

@@ -7,7 +7,10 @@
 //!
 //! `REPS = 0` only builds the detector (for profiling the build alone);
 //! `PROF_BUILDS=k` builds it k times and reports the best build time;
-//! `PROF_MAIN_THREAD=1` runs everything on the main thread (for callgrind). The
+//! `PROF_MAIN_THREAD=1` runs everything on the main thread (for callgrind);
+//! `PROF_WAVE=1` detects on a sequence of four frames cycled (the frame
+//! plus a wave of 0.05 mean edges, wavelength 16 mean edges, phase 0.7 k:
+//! the per-frame sequence of `scripts/bench_peers.py`) instead of one. The
 //! first detection (refit + traverse) is reported apart from the best: it
 //! also computes the patches the contour test needs (a one-shot query is
 //! build + first detection).
@@ -57,10 +60,27 @@ fn main() {
         println!("{n} triangles: best build {:.2} ms", build * 1e3);
         return;
     }
+    let frames = if std::env::var("PROF_WAVE").is_ok_and(|x| x == "1") {
+        let e = mesh.mean_edge_length();
+        let k = std::f64::consts::TAU / (16.0 * e);
+        (0..4)
+            .map(|f| {
+                let ph = 0.7 * f as f64;
+                p.iter()
+                    .map(|x| {
+                        let s = |a: f64, o: f64| (k * a + ph + o).sin();
+                        *x + 0.05 * e * selfcd::DVec3::new(s(x.y, 0.0), s(x.z, 1.0), s(x.x, 2.0))
+                    })
+                    .collect()
+            })
+            .collect()
+    } else {
+        vec![p]
+    };
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
     let mut first = 0.0;
     for r in 0..reps {
-        let s = d.detect(&p).unwrap().stats;
+        let s = d.detect(&frames[r % frames.len()]).unwrap().stats;
         if r == 0 {
             first = s.refit_time + s.traverse_time;
         }
@@ -70,7 +90,7 @@ fn main() {
     }
     let s = last.unwrap();
     println!(
-        "{n} triangles: build {:.1} ms, first detect {:.1} ms, best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {} (failed {}), primitive tests {}, contacts {}, proximity tests {}, proximity contacts {}",
-        build * 1e3, first * 1e3, refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.contour_fails, s.primitive_tests, s.contacts, s.proximity_tests, s.proximity_contacts
+        "{n} triangles: build {:.1} ms, first detect {:.1} ms, best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {} (failed {}, certificates reused {}), primitive tests {}, contacts {}, proximity tests {}, proximity contacts {}",
+        build * 1e3, first * 1e3, refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.contour_fails, s.certificates_reused, s.primitive_tests, s.contacts, s.proximity_tests, s.proximity_contacts
     );
 }

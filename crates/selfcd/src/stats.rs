@@ -19,6 +19,9 @@ pub struct FrameStats {
     pub contour_tests: u64,
     /// Contour tests that failed, so the node or pair was descended into.
     pub contour_fails: u64,
+    /// Culls decided by a contour certificate kept from an earlier frame
+    /// (reused work; not in `contour_tests`, which counts fresh tests).
+    pub certificates_reused: u64,
     /// Leaf pairs skipped because the triangles share a vertex.
     pub adjacent_skips: u64,
     /// Triangle-triangle tests run: the paper's polygon-polygon checks.
@@ -74,6 +77,8 @@ pub struct Counters {
     pub contour_tests: u64,
     /// See [`FrameStats::contour_fails`].
     pub contour_fails: u64,
+    /// See [`FrameStats::certificates_reused`].
+    pub certificates_reused: u64,
     /// See [`FrameStats::adjacent_skips`].
     pub adjacent_skips: u64,
     /// See [`FrameStats::primitive_tests`].
@@ -90,6 +95,7 @@ impl Counters {
         self.pair_culls += o.pair_culls;
         self.contour_tests += o.contour_tests;
         self.contour_fails += o.contour_fails;
+        self.certificates_reused += o.certificates_reused;
         self.adjacent_skips += o.adjacent_skips;
         self.primitive_tests += o.primitive_tests;
         self.filter_decisions += o.filter_decisions;
@@ -102,6 +108,7 @@ impl Counters {
         s.pair_culls += self.pair_culls;
         s.contour_tests += self.contour_tests;
         s.contour_fails += self.contour_fails;
+        s.certificates_reused += self.certificates_reused;
         s.adjacent_skips += self.adjacent_skips;
         s.primitive_tests += self.primitive_tests;
         s.filter_decisions += self.filter_decisions;
@@ -114,6 +121,7 @@ impl Counters {
         s.pair_culls = self.pair_culls;
         s.contour_tests = self.contour_tests;
         s.contour_fails = self.contour_fails;
+        s.certificates_reused = self.certificates_reused;
         s.adjacent_skips = self.adjacent_skips;
         s.primitive_tests = self.primitive_tests;
         s.filter_decisions = self.filter_decisions;

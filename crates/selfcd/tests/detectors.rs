@@ -428,3 +428,46 @@ fn extreme_scales_give_the_same_pairs() {
         }
     }
 }
+
+/// A kept `bvh-cones-contour` detector over animations (every shape reached
+/// from the rest shape in a few large steps, so contact appears part way,
+/// then wobbling there in small ones): each frame's pairs equal brute
+/// force's, though in the wobble most culls reuse contour certificates kept
+/// from earlier frames (counted, so the kept path is run).
+#[test]
+fn kept_certificates_give_the_brute_force_pairs_over_sequences() {
+    let (mut reused, mut fresh) = (0, 0);
+    for (mname, mesh) in meshes().into_iter().skip(1).take(2) {
+        for (sname, shape) in shapes() {
+            let target = shape.apply(mesh.rest());
+            let mut d =
+                new_detector(mesh.clone(), Method::BvhConesContour, &Default::default()).unwrap();
+            let edge = mesh.mean_edge_length();
+            let (steps, wobble) = (6, 10);
+            for k in 0..=steps + wobble {
+                let t = (k as f64 / steps as f64).min(1.0);
+                let phase = 0.7 * k as f64;
+                let p: Vec<DVec3> = mesh
+                    .rest()
+                    .iter()
+                    .zip(&target)
+                    .map(|(a, b)| {
+                        let w = DVec3::new(b.y, b.z, b.x) * (2.0 * PI / (8.0 * edge));
+                        let wave = DVec3::new(w.x.sin(), (w.y + 1.0).sin(), (w.z + 2.0).sin());
+                        a.lerp(*b, t)
+                            + 0.03 * edge * (k > steps) as u8 as f64 * (wave * phase.cos())
+                    })
+                    .collect();
+                let got = d.detect(&p).unwrap();
+                let want = detect(&mesh, Method::Brute, &p, 0.0).pairs;
+                assert_eq!(got.pairs, want, "{mname}/{sname} frame {k}");
+                if k > steps {
+                    reused += got.stats.certificates_reused;
+                    fresh += got.stats.contour_tests;
+                }
+            }
+        }
+    }
+    println!("certificates reused {reused}, fresh contour tests {fresh}");
+    assert!(reused > fresh, "reused {reused}, fresh {fresh}");
+}

@@ -24,14 +24,17 @@
 //! inside the other: the projection is then one-to-one on each and their
 //! images meet only where the patches themselves meet.
 //!
-//! Every decision is made from this frame's boxes, cones and positions alone,
-//! so a certificate never depends on earlier frames.
+//! Every decision is made from this frame's boxes, cones and positions, or,
+//! when the caller keeps certificates across frames ([`super::kept`]), from
+//! a certificate of an earlier frame that this frame's cones and
+//! displacement bounds show still holds.
 
+use super::kept::{key, Reuse};
 use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
-    loops_meet_only_where_shared, simple_ccw_loop, star_about, swept_simple_ccw_loop,
-    swept_star_about, LoopScratch, Plane, Seg,
+    loops_meet_only_where_shared, simple_ccw_loop, simple_ccw_loop_slack, star_about, star_slack,
+    swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -116,6 +119,7 @@ pub struct ContourCull<'a> {
     mesh: &'a Mesh,
     positions: &'a [DVec3],
     cones: ConeCull<'a>,
+    reuse: Option<&'a Reuse<'a>>,
 }
 
 /// Buffers of one task's contour tests.
@@ -138,6 +142,21 @@ impl<'a> ContourCull<'a> {
                 cones: &bvh.cones,
                 patches: &bvh.patches,
             },
+            reuse: None,
+        }
+    }
+
+    /// [`new`](Self::new), reusing the certificates of earlier frames that
+    /// still hold and recording the ones made now ([`super::kept`]).
+    pub fn with_reuse(
+        bvh: &'a Bvh,
+        mesh: &'a Mesh,
+        positions: &'a [DVec3],
+        reuse: &'a Reuse<'a>,
+    ) -> Self {
+        ContourCull {
+            reuse: Some(reuse),
+            ..Self::new(bvh, mesh, positions)
         }
     }
 
@@ -155,6 +174,48 @@ impl<'a> ContourCull<'a> {
         star_about(segs, center) || simple_ccw_loop(segs, loops)
     }
 
+    /// [`disk_is_height_field`](Self::disk_is_height_field) with the slack
+    /// of its answer (how far the vertices may move), or None. The loop
+    /// test's slack is at most `cap` (it compares the edge pairs up to `2 cap`
+    /// apart); the star test's is not capped (it costs the same at any size).
+    fn disk_slack(
+        &self,
+        contour: &[u32],
+        plane: &Plane,
+        cap: f64,
+        s: &mut ContourScratch,
+    ) -> Option<f64> {
+        project_contour(self.mesh, self.positions, contour, plane, &mut s.segs);
+        star_slack(&s.segs, [0.0; 2]).or_else(|| simple_ccw_loop_slack(&s.segs, &mut s.loops, cap))
+    }
+
+    /// A kept certificate of node `a` (`a == b`) or of the union of `a` and
+    /// `b` that still holds: this frame's spread within its slack, and both
+    /// cones within 90 degrees of its axis.
+    fn reused(&self, r: &Reuse, a: u32, b: u32) -> bool {
+        let cones = &self.bvh.cones;
+        r.get(key(a, b), r.spread(a, b)).is_some_and(|k| {
+            cones[a as usize].within_90_of(k.axis) && cones[b as usize].within_90_of(k.axis)
+        })
+    }
+
+    /// The fresh certificate of `contour` (a disk) projected on `plane`
+    /// (normal to `axis`), recorded for later frames.
+    fn certify_disk(
+        &self,
+        r: &Reuse,
+        (a, b): (u32, u32),
+        contour: &[u32],
+        (axis, plane): (DVec3, &Plane),
+        s: &mut ContourScratch,
+    ) -> bool {
+        let slack = self.disk_slack(contour, plane, r.cap(), s);
+        if let Some(slack) = slack {
+            r.put(key(a, b), axis, slack, r.spread(a, b));
+        }
+        slack.is_some()
+    }
+
     /// Is the union of adjacent disjoint patches a and b a height field along
     /// `axis`? When they share edges the union is a disk (Euler characteristic
     /// 1, no conflicting edge) and its contour gets the node test; when they
@@ -169,6 +230,12 @@ impl<'a> ContourCull<'a> {
         let plane = Plane::new(axis, box_a.union(box_b).center());
         if glued {
             // Patches glued along edges: the union is one disk, tested as a node is.
+            if let Some(r) = self.reuse {
+                let merged = std::mem::take(&mut s.merged);
+                let ok = self.certify_disk(r, (a, b), &merged, (axis, &plane), s);
+                s.merged = merged;
+                return ok;
+            }
             return self.disk_is_height_field(
                 &s.merged,
                 &plane,
@@ -227,14 +294,30 @@ impl Cull for ContourCull<'_> {
     type Scratch = ContourScratch;
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
+        let Some(r) = self.reuse else {
+            return disk_certified(self.bvh, n, c, |contour, plane| {
+                self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
+            });
+        };
+        if self.bvh.cones[n as usize].is_positive() && self.reused(r, n, n) {
+            c.certificates_reused += 1;
+            c.self_culls += 1;
+            return true;
+        }
         disk_certified(self.bvh, n, c, |contour, plane| {
-            self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
+            let axis = self.bvh.cones[n as usize].axis;
+            self.certify_disk(r, (n, n), contour, (axis, plane), s)
         })
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
         if !self.cones.adjacent_positive(a, b) {
             return false;
+        }
+        if self.reuse.is_some_and(|r| self.reused(r, a, b)) {
+            c.certificates_reused += 1;
+            c.pair_culls += 1;
+            return true;
         }
         let (ca, cb) = (&self.bvh.cones[a as usize], &self.bvh.cones[b as usize]);
         c.contour_tests += 1;

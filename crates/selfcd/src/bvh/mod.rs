@@ -8,6 +8,7 @@
 
 pub mod build;
 pub mod certify;
+pub mod kept;
 pub mod patch;
 pub mod refit;
 pub mod traverse;

@@ -2,7 +2,9 @@
 
 use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
 use super::{Detection, Detector, Method};
-use crate::bvh::traverse::{self_traverse, TraverseOptions};
+use crate::bvh::certify::ContourCull;
+use crate::bvh::kept::{KeptCertificates, Reuse};
+use crate::bvh::traverse::{self_traverse, traverse, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
 use crate::mesh::Mesh;
@@ -12,13 +14,21 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// A BVH built once for the mesh, refitted and traversed each frame.
+/// `bvh-cones-contour` keeps its contour certificates from frame to frame
+/// ([`crate::bvh::kept`]) from the second [`Detector::detect`] call on (a
+/// single call, as a one-shot query makes, pays nothing for them).
 pub struct BvhDetector {
     mesh: Arc<Mesh>,
     bvh: Bvh,
     method: Method,
     thickness: f64,
     max_contacts: usize,
+    kept: Option<KeptCertificates>,
+    frames: u64,
 }
+
+/// Kept certificates hold for moves up to this many mean edge lengths.
+const KEPT_CAP: f64 = 0.25;
 
 impl BvhDetector {
     /// Builds the hierarchy of `mesh` for `method` (not `brute`).
@@ -30,6 +40,8 @@ impl BvhDetector {
             method,
             thickness,
             max_contacts: DEFAULT_MAX_CONTACTS,
+            kept: None,
+            frames: 0,
         }
     }
 
@@ -58,6 +70,12 @@ impl BvhDetector {
     /// distance). Fills every field but the refit and sensor times.
     /// Errors: more proximity contacts than `max_contacts` ([`crate::Error::TooManyContacts`]).
     pub fn traverse(&self, positions: &[DVec3]) -> Result<Detection> {
+        self.traverse_with(positions, None)
+    }
+
+    /// [`traverse`](Self::traverse), the contour cull reusing kept
+    /// certificates through `reuse` when given.
+    fn traverse_with(&self, positions: &[DVec3], reuse: Option<&Reuse>) -> Result<Detection> {
         let t0 = Instant::now();
         let mesh = &*self.mesh;
         let opts = TraverseOptions {
@@ -65,13 +83,14 @@ impl BvhDetector {
             contour: self.method == Method::BvhConesContour,
             gap: 0.0,
         };
-        let (mut pairs, counters) = self_traverse(
-            &self.bvh,
-            mesh,
-            positions,
-            opts,
-            &Intersect { mesh, positions },
-        );
+        let visitor = Intersect { mesh, positions };
+        let (mut pairs, counters) = match reuse {
+            Some(r) => {
+                let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r);
+                traverse(&self.bvh, mesh, 0.0, &cull, &visitor)
+            }
+            None => self_traverse(&self.bvh, mesh, positions, opts, &visitor),
+        };
         pairs.sort_unstable();
         let mut det = Detection {
             pairs,
@@ -122,8 +141,27 @@ impl Detector for BvhDetector {
         self.mesh.check_positions(positions)?;
         let t0 = Instant::now();
         self.refit(positions);
+        self.frames += 1;
+        if self.method != Method::BvhConesContour || self.frames < 2 {
+            let refit_time = t0.elapsed().as_secs_f64();
+            let mut det = self.traverse(positions)?;
+            det.stats.refit_time = refit_time;
+            return Ok(det);
+        }
+        // The displacement boxes are fitted with the refit, and timed with it.
+        let cap = KEPT_CAP * self.mesh.mean_edge_length();
+        let mut kept = self
+            .kept
+            .take()
+            .unwrap_or_else(|| KeptCertificates::new(cap));
+        let reuse = kept.frame(&self.bvh, &self.mesh, positions);
         let refit_time = t0.elapsed().as_secs_f64();
-        let mut det = self.traverse(positions)?;
+        let det = self.traverse_with(positions, reuse.as_ref());
+        if let Some(fresh) = reuse.map(Reuse::into_fresh) {
+            kept.keep(fresh);
+        }
+        self.kept = Some(kept);
+        let mut det = det?;
         det.stats.refit_time = refit_time;
         Ok(det)
     }

@@ -238,6 +238,20 @@ impl NormalCone {
         self.half().c > POSITIVE_MARGIN
     }
 
+    /// True when every direction under the cone is strictly within 90 degrees
+    /// of unit vector `v` (with the margin of [`is_positive`](Self::is_positive)):
+    /// the angle between the axes plus the half-angle stays below 90 degrees.
+    #[inline]
+    pub fn within_90_of(&self, v: DVec3) -> bool {
+        if self.is_full() {
+            return false;
+        }
+        let reach = Angle::between(self.axis, v)
+            .widen(MERGE_SLACK)
+            .add(self.half());
+        !reach.at_least_pi() && reach.c > POSITIVE_MARGIN
+    }
+
     /// `self.merge(o).is_positive()`, without building the merged axis, and
     /// with a cheap early "no" first: the merged half-angle is (h1 + d + h2) / 2
     /// (or h1 or h2 when one cone holds the other, and then d < h1 - h2 <

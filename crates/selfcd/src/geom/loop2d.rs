@@ -100,6 +100,48 @@ pub fn swept_star_about(start: &[Seg], end: &[Seg], c: [f64; 2]) -> bool {
     })
 }
 
+/// [`star_about`], and when it passes, how far the loop's vertices may move
+/// with it still passing in exact arithmetic: `Some(s)` means that every
+/// loop whose vertices are each within `s` of these (any common translation
+/// of the loop and `c` removed) has `c` strictly left of every edge and winds
+/// around it once, and so does every loop on the straight way there (the
+/// winding number cannot change while `c` stays off the loop).
+///
+/// With `a`, `b` an edge's ends relative to `c`, `M = max(|a|, |b|)` and each
+/// end moved by at most `s <= M / 2`, the cross product loses at most
+/// `s (|a| + |b|) + s^2`, and the star test's margin grows to at most
+/// `2.25e-9 M^2`; `s` is the root of `s^2 + s (|a| + |b|) = cross - 2.25e-9 M^2`,
+/// shrunk by a relative 1e-9 for its own rounding.
+pub fn star_slack(segs: &[Seg], c: [f64; 2]) -> Option<f64> {
+    if !star_about(segs, c) {
+        return None;
+    }
+    let slack = segs.iter().fold(f64::INFINITY, |slack, s| {
+        let a = [s.p[0][0] - c[0], s.p[0][1] - c[1]];
+        let b = [s.p[1][0] - c[0], s.p[1][1] - c[1]];
+        let (la, lb) = (len(a), len(b));
+        let m = la.max(lb);
+        let v = (a[0] * b[1] - a[1] * b[0]) - 2.25e-9 * m * m;
+        if !(v > 0.0 && m * m >= 4.0 * MIN_SCALE2) {
+            return 0.0;
+        }
+        slack.min(quadratic_root(1.0, la + lb, v).min(0.5 * m))
+    });
+    Some(slack * (1.0 - 1e-9))
+}
+
+/// The positive root of `k s^2 + b s = v` (k, b, v >= 0).
+#[inline]
+fn quadratic_root(k: f64, b: f64, v: f64) -> f64 {
+    // 2v / (b + sqrt(b^2 + 4kv)): no cancellation when b^2 >> kv.
+    2.0 * v / (b + (b * b + 4.0 * k * v).sqrt())
+}
+
+#[inline]
+fn len(p: [f64; 2]) -> f64 {
+    (p[0] * p[0] + p[1] * p[1]).sqrt()
+}
+
 /// Smallest squared length the margins below are taken relative to. The
 /// margins (1e-9 and 1e-12 of a squared length) then stay above 1e-282, far
 /// above the absolute error underflow adds to a product (2^-1074): below it
@@ -245,20 +287,119 @@ fn one_cycle(segs: &[Seg], table: &mut Vec<[u32; 2]>) -> bool {
 /// positive. O(m) expected (hash table, bucket grid), no allocation once
 /// `scratch` is warm.
 pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
+    one_ccw_cycle(segs, scratch)
+        .is_some_and(|ext2| all_pairs_clear(segs, None, 1e-12 * ext2, scratch))
+}
+
+/// The conditions of [`simple_ccw_loop`] but the edge pairs: one cycle with
+/// a positive signed area. Returns the squared extent of the loop.
+fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
     if segs.len() < 3 || !one_cycle(segs, &mut scratch.next) {
-        return false;
+        return None;
     }
     let area2: f64 = segs
         .iter()
         .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
         .sum();
     let ext2 = extent2(segs);
-    if !(ext2 >= MIN_SCALE2)
-        || area2.partial_cmp(&(1e-9 * ext2)) != Some(std::cmp::Ordering::Greater)
-    {
-        return false;
+    let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
+    (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
+}
+
+/// [`simple_ccw_loop`], and when it passes, how far (at most `cap`) the
+/// vertices may move with the loop still simple and counter-clockwise in
+/// exact arithmetic, also at every point of the straight way there (so its
+/// orientation, which only a self-touching loop could flip, stays):
+/// `Some(s)` bounds the move of every vertex, any common translation removed.
+/// Two edges sharing no vertex stay apart while each moves less than half
+/// their distance; two sharing one keep their cross product's sign, or a
+/// negative dot product (see [`adjacent_slack`]). Edge pairs whose boxes are
+/// more than `2 cap` apart (so each may move `cap`) are not compared.
+pub fn simple_ccw_loop_slack(segs: &[Seg], scratch: &mut LoopScratch, cap: f64) -> Option<f64> {
+    // The grown boxes meet wherever the plain ones do, so every pair
+    // `simple_ccw_loop` compares is compared (and must be clear) here too.
+    let ext2 = one_ccw_cycle(segs, scratch)?;
+    let eps = 1e-12 * ext2;
+    let slack = std::cell::Cell::new(cap);
+    let ok = pairs_clear(
+        segs,
+        None,
+        None,
+        cap,
+        |i, j| {
+            let s = pair_slack(&segs[i], &segs[j], eps, ext2.sqrt());
+            slack.set(slack.get().min(s));
+            s >= 0.0
+        },
+        scratch,
+    );
+    ok.then(|| slack.get().max(0.0) * (1.0 - 1e-9))
+}
+
+/// How far two clear edges of one loop may each move and stay clear
+/// ([`simple_ccw_loop_slack`]); negative when they are not clear now.
+fn pair_slack(a: &Seg, b: &Seg, eps: f64, extent: f64) -> f64 {
+    if !edges_clear(a, b, eps) {
+        return -1.0;
     }
-    all_pairs_clear(segs, None, 1e-12 * ext2, scratch)
+    let shared = |v: u32| b.v.contains(&v);
+    match (shared(a.v[0]), shared(a.v[1])) {
+        (true, true) => f64::INFINITY,
+        (false, false) => 0.5 * (seg_distance(a, b) - 1e-9 * extent),
+        (sa0, _) => {
+            let (s, fa) = if sa0 {
+                (a.p[0], a.p[1])
+            } else {
+                (a.p[1], a.p[0])
+            };
+            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] {
+                b.p[1]
+            } else {
+                b.p[0]
+            };
+            adjacent_slack(
+                [fa[0] - s[0], fa[1] - s[1]],
+                [fb[0] - s[0], fb[1] - s[1]],
+                eps,
+            )
+        }
+    }
+}
+
+/// Two edges leaving a shared vertex along `da` and `db` overlap beyond it
+/// only when they point the same way. Each end moving by at most `s` moves
+/// `da` and `db` by at most `2 s`, which changes their cross and dot
+/// products by at most `2 s (|da| + |db|) + 4 s^2`: while that stays below
+/// `|cross|`, or below `-dot`, they never point the same way.
+fn adjacent_slack(da: [f64; 2], db: [f64; 2], eps: f64) -> f64 {
+    let cross = da[0] * db[1] - da[1] * db[0];
+    let dot = da[0] * db[0] + da[1] * db[1];
+    let v = cross.abs().max(-dot) - eps;
+    if !(v > 0.0) {
+        return 0.0;
+    }
+    quadratic_root(4.0, 2.0 * (len(da) + len(db)), v)
+}
+
+/// Distance between two segments that do not meet: the least distance from
+/// an end of one to the other.
+fn seg_distance(a: &Seg, b: &Seg) -> f64 {
+    let to = |p: [f64; 2], s: &Seg| {
+        let [q, r] = s.p;
+        let d = [r[0] - q[0], r[1] - q[1]];
+        let w = [p[0] - q[0], p[1] - q[1]];
+        let d2 = d[0] * d[0] + d[1] * d[1];
+        let t = if d2 > 0.0 {
+            ((w[0] * d[0] + w[1] * d[1]) / d2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        len([w[0] - t * d[0], w[1] - t * d[1]])
+    };
+    to(a.p[0], b)
+        .min(to(a.p[1], b))
+        .min(to(b.p[0], a))
+        .min(to(b.p[1], a))
 }
 
 /// Is the projected contour one simple counter-clockwise loop at every time
@@ -281,6 +422,7 @@ pub fn swept_simple_ccw_loop(start: &[Seg], end: &[Seg], scratch: &mut LoopScrat
         start,
         None,
         Some(end),
+        0.0,
         |i, j| edges_stay_clear([&start[i], &end[i]], [&start[j], &end[j]], eps),
         scratch,
     )
@@ -353,16 +495,26 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
         Some(b) if i >= a.len() => &b[i - a.len()],
         _ => &a[i],
     };
-    pairs_clear(a, b, None, |i, j| edges_clear(get(i), get(j), eps), scratch)
+    pairs_clear(
+        a,
+        b,
+        None,
+        0.0,
+        |i, j| edges_clear(get(i), get(j), eps),
+        scratch,
+    )
 }
 
 /// [`all_pairs_clear`] with the test `clear(i, j)` on edge ids (`a`'s, then
 /// `b`'s), and, when `a_end` is given, `a`'s edges moving linearly to
 /// `a_end` (same order; `b` must be None): the boxes then hold both ends.
+/// Boxes are grown by `pad` (>= 0) on every side: pairs whose boxes are up
+/// to `2 pad` apart are compared too.
 fn pairs_clear(
     a: &[Seg],
     b: Option<&[Seg]>,
     a_end: Option<&[Seg]>,
+    pad: f64,
     clear: impl Fn(usize, usize) -> bool,
     scratch: &mut LoopScratch,
 ) -> bool {
@@ -404,6 +556,8 @@ fn pairs_clear(
             bx.lo = [min(bx.lo[0], min(x0, x1)), min(bx.lo[1], min(y0, y1))];
             bx.hi = [max(bx.hi[0], max(x0, x1)), max(bx.hi[1], max(y0, y1))];
         }
+        bx.lo = [bx.lo[0] - pad, bx.lo[1] - pad];
+        bx.hi = [bx.hi[0] + pad, bx.hi[1] + pad];
         boxes.push(bx);
     }
     let (ba, bb) = boxes.split_at(a.len());
@@ -437,7 +591,10 @@ fn pairs_clear(
         } else {
             let [[x0, y0], [x1, y1]] = get(i).p;
             let (u, v) = (D[0] * x0 + D[1] * y0, D[0] * x1 + D[1] * y1);
-            (min(u, v), max(u, v))
+            // |D| = 1 with positive components: a box grown by `pad` spans
+            // at most `(D[0] + D[1]) pad` more each way.
+            let grow = (D[0] + D[1]) * pad;
+            (min(u, v) - grow, max(u, v) + grow)
         };
         first = min(first, span.0);
         last = max(last, span.1);
@@ -573,6 +730,85 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// Moves every vertex of a loop by a random vector of length up to `r`
+    /// (the same vertex the same way in both edges that hold it).
+    fn jiggle(segs: &[Seg], r: f64, rng: &mut crate::scene::SplitMix) -> Vec<Seg> {
+        let mut moved = std::collections::HashMap::new();
+        for s in segs {
+            for v in s.v {
+                moved.entry(v).or_insert_with(|| {
+                    let a = std::f64::consts::TAU * rng.unit();
+                    let l = r * rng.unit().sqrt();
+                    [l * a.cos(), l * a.sin()]
+                });
+            }
+        }
+        segs.iter()
+            .map(|s| {
+                let m = |k: usize| {
+                    let d = moved[&s.v[k]];
+                    [s.p[k][0] + d[0], s.p[k][1] + d[1]]
+                };
+                Seg {
+                    p: [m(0), m(1)],
+                    v: s.v,
+                }
+            })
+            .collect()
+    }
+
+    /// Loops moved by up to their slack (less a hair) still pass; slacks are
+    /// positive on shapes with room, and zero or absent where there is none.
+    #[test]
+    fn slacks_bound_the_moves_that_keep_a_loop_passing() {
+        let mut rng = crate::scene::SplitMix::new(3);
+        let ids: Vec<u32> = (0..8).collect();
+        let square = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &ids[..4]);
+        let u = loop_of(
+            &[
+                [0., 0.],
+                [3., 0.],
+                [3., 3.],
+                [2., 3.],
+                [2., 1.],
+                [1., 1.],
+                [1., 3.],
+                [0., 3.],
+            ],
+            &ids,
+        );
+        let star = star_slack(&square, [0.5, 0.5]).unwrap();
+        assert!(star > 0.1 && star < 0.5, "{star}");
+        assert_eq!(star_slack(&u, [1.5, 1.5]), None);
+        let mut scratch = LoopScratch::default();
+        let simple = simple_ccw_loop_slack(&u, &mut scratch, 10.0).unwrap();
+        assert!(simple > 0.05 && simple < 0.5, "{simple}");
+        assert!(simple_ccw_loop_slack(&u, &mut scratch, 0.01).unwrap() <= 0.01);
+        for _ in 0..2000 {
+            let moved = jiggle(&square, 0.999 * star, &mut rng);
+            assert!(star_about(&moved, [0.5, 0.5]));
+            let moved = jiggle(&u, 0.999 * simple, &mut rng);
+            assert!(simple_ccw_loop(&moved, &mut scratch));
+        }
+        // A loop that a small move breaks has a small slack: the U with its
+        // slot narrowed to 1e-3.
+        let narrow = loop_of(
+            &[
+                [0., 0.],
+                [3., 0.],
+                [3., 3.],
+                [1.001, 3.],
+                [1.001, 1.],
+                [1., 1.],
+                [1., 3.],
+                [0., 3.],
+            ],
+            &ids,
+        );
+        let tight = simple_ccw_loop_slack(&narrow, &mut scratch, 10.0).unwrap();
+        assert!(tight < 5e-4, "{tight}");
     }
 
     #[test]

@@ -1,0 +1,208 @@
+//! Contour certificates kept from frame to frame (the seed paper's first
+//! future-work item: positional relationships change slowly, so cache them).
+//!
+//! A certificate of [`super::certify::ContourCull`] says that a node, or the
+//! union of two adjacent nodes, is a height field along an axis `v`: its
+//! normals lie strictly within 90 degrees of `v` and its contour, projected
+//! along `v`, is a star about a point or a simple counter-clockwise loop.
+//! When it is made, the loop tests also say how far (its *slack* `s`) every
+//! contour vertex may move, any common translation removed, with the
+//! projected loop keeping that property in exact arithmetic
+//! ([`star_slack`](crate::geom::loop2d::star_slack),
+//! [`simple_ccw_loop_slack`](crate::geom::loop2d::simple_ccw_loop_slack)).
+//!
+//! **Bounding the move.** Displacements `e_i = x_i - r_i` are taken from one
+//! reference `r`, and every node gets the box of its vertices'
+//! displacements, fitted bottom-up each frame. Between the frame `t` a
+//! certificate was made and the current one, vertex `i` moved by
+//! `e_i - e_i(t)`; both lie in boxes of half-diagonals `h` and `h(t)` about
+//! their centres, so the move is a common translation plus at most
+//! `h + h(t)`. The certificate stores `s - h(t)` and holds while
+//! `h <= s - h(t)`. The normals are checked on this frame's cones: each must
+//! lie strictly within 90 degrees of the stored axis
+//! ([`NormalCone::within_90_of`](crate::geom::NormalCone::within_90_of)).
+//! The topology (a disk, or two glued along edges) does not change. So a kept
+//! certificate is exactly as sound as a fresh one; reusing it costs O(1)
+//! instead of a walk along the contour.
+//!
+//! The reference is reset (and every certificate dropped) when the whole
+//! mesh's displacement spread exceeds [`RESET`] times the loop test's cap on
+//! its slacks: past it few certificates can still hold. When that happens two frames running (the
+//! mesh moves too much per frame for any certificate to last), the frame
+//! runs the plain tests and records nothing, so fast motion pays nothing
+//! for the slacks.
+
+use super::Bvh;
+use crate::geom::Aabb;
+use crate::mesh::Mesh;
+use glam::DVec3;
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// The reference is reset when the mesh's displacement spread exceeds this
+/// many times the loop test's cap.
+pub const RESET: f64 = 4.0;
+
+/// A kept certificate: the projection axis and how far the vertices may
+/// still move from the reference (see the module doc).
+#[derive(Debug, Clone, Copy)]
+pub struct Kept {
+    /// Unit axis the patch is a height field along.
+    pub axis: DVec3,
+    /// The slack left once the displacement spread at certification is taken off.
+    pub slack: f64,
+}
+
+/// The certificates of one hierarchy, with the reference they are kept against.
+#[derive(Debug, Default)]
+pub struct KeptCertificates {
+    reference: Vec<DVec3>,
+    /// Key: `a << 32 | b` for the union of nodes a < b, `n << 32 | n` for node n.
+    kept: HashMap<u64, Kept>,
+    /// Displacement box of every node this frame.
+    spread: Vec<Aabb>,
+    cap: f64,
+    /// The last frame reset the reference.
+    reset_last: bool,
+}
+
+/// The map key of node `a`'s certificate (`a == b`) or of the union of `a` and `b`.
+#[inline]
+pub fn key(a: u32, b: u32) -> u64 {
+    let (a, b) = (a.min(b) as u64, a.max(b) as u64);
+    a << 32 | b
+}
+
+/// Half the diagonal of a box of displacements: the farthest any of its
+/// points is from its centre, plus the rounding of the displacements
+/// (each coordinate within 2^-53 of its own size) and of this sum.
+#[inline]
+fn half_diagonal(b: &Aabb) -> f64 {
+    let size = b.min.abs().max(b.max.abs()).max_element();
+    (0.5 * (b.max - b.min).length() + 1e-15 * size) * (1.0 + 1e-12)
+}
+
+impl KeptCertificates {
+    /// An empty store; the loop test's certificates are made to hold for
+    /// moves up to `cap` (a length, e.g. a fraction of the mean edge).
+    pub fn new(cap: f64) -> Self {
+        KeptCertificates {
+            cap,
+            ..Default::default()
+        }
+    }
+
+    /// Number of certificates kept.
+    pub fn len(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// True when no certificate is kept.
+    pub fn is_empty(&self) -> bool {
+        self.kept.is_empty()
+    }
+
+    /// Fits the displacement boxes of `bvh`'s nodes to `positions` and
+    /// resets the reference when they spread beyond the cap; returns this
+    /// frame's view for the traversal, or None when the plain tests should
+    /// run (the reference was reset this frame and the last).
+    pub fn frame<'a>(
+        &'a mut self,
+        bvh: &Bvh,
+        mesh: &Mesh,
+        positions: &[DVec3],
+    ) -> Option<Reuse<'a>> {
+        let tris = mesh.triangles();
+        let mut reset = self.reference.len() != positions.len();
+        if !reset {
+            self.fit(bvh, tris, positions);
+            let spread = half_diagonal(&self.spread[bvh.root() as usize]);
+            reset = !(spread <= RESET * self.cap);
+        }
+        let (reset_last, plain) = (self.reset_last, reset && self.reset_last);
+        self.reset_last = reset;
+        if reset {
+            self.reset(positions);
+            if reset_last {
+                return None;
+            }
+            self.fit(bvh, tris, positions);
+        }
+        debug_assert!(!plain);
+        Some(Reuse {
+            kept: &self.kept,
+            spread: &self.spread,
+            cap: self.cap,
+            fresh: Mutex::new(Vec::new()),
+        })
+    }
+
+    /// Adds the certificates made in a frame (`Reuse::into_fresh`).
+    pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
+        self.kept.extend(fresh);
+    }
+
+    fn reset(&mut self, positions: &[DVec3]) {
+        self.reference.clear();
+        self.reference.extend_from_slice(positions);
+        self.kept.clear();
+    }
+
+    fn fit(&mut self, bvh: &Bvh, tris: &[[u32; 3]], positions: &[DVec3]) {
+        let r = &self.reference;
+        self.spread.resize(bvh.n_nodes(), Aabb::EMPTY);
+        bvh.fit_nodes(
+            &mut self.spread,
+            |t| {
+                let d = tris[t].map(|v| positions[v as usize] - r[v as usize]);
+                Aabb::from_points(&d)
+            },
+            Aabb::union,
+        );
+    }
+}
+
+/// One frame's view of the kept certificates, for [`super::certify::ContourCull`].
+pub struct Reuse<'a> {
+    kept: &'a HashMap<u64, Kept>,
+    spread: &'a [Aabb],
+    cap: f64,
+    fresh: Mutex<Vec<(u64, Kept)>>,
+}
+
+impl Reuse<'_> {
+    /// The cap on the loop test's slacks (see `ContourCull`).
+    pub fn cap(&self) -> f64 {
+        self.cap
+    }
+
+    /// The displacement spread of node `a`, or of the union of `a` and `b`.
+    #[inline]
+    pub fn spread(&self, a: u32, b: u32) -> f64 {
+        let (sa, sb) = (&self.spread[a as usize], &self.spread[b as usize]);
+        half_diagonal(&sa.union(sb))
+    }
+
+    /// The certificate under `key` when it still holds for spread `h`.
+    #[inline]
+    pub fn get(&self, key: u64, h: f64) -> Option<Kept> {
+        self.kept.get(&key).copied().filter(|k| h <= k.slack)
+    }
+
+    /// Records a certificate made this frame at spread `h` with slack `slack`.
+    pub fn put(&self, key: u64, axis: DVec3, slack: f64, h: f64) {
+        let left = slack - h;
+        if left > 0.0 {
+            let kept = Kept { axis, slack: left };
+            self.fresh
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push((key, kept));
+        }
+    }
+
+    /// The certificates made this frame.
+    pub fn into_fresh(self) -> Vec<(u64, Kept)> {
+        self.fresh.into_inner().unwrap_or_else(|e| e.into_inner())
+    }
+}
