@@ -200,20 +200,28 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
         }
         (sa0, _) => {
             // One shared vertex s: the edges leave it in different directions.
-            let (s, fa) = if sa0 {
-                (a.p[0], a.p[1])
-            } else {
-                (a.p[1], a.p[0])
-            };
-            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] {
-                b.p[1]
-            } else {
-                b.p[0]
-            };
+            let [s, fa, fb] = shared_start(a, b, sa0);
             let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
             orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
         }
     }
+}
+
+/// Edges `a` and `b` sharing one vertex (`a`'s start when `sa0`, else its
+/// end): that vertex's position and the far ends of `a` and `b`.
+#[inline]
+fn shared_start(a: &Seg, b: &Seg, sa0: bool) -> [[f64; 2]; 3] {
+    let (s, fa) = if sa0 {
+        (a.p[0], a.p[1])
+    } else {
+        (a.p[1], a.p[0])
+    };
+    let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] {
+        b.p[1]
+    } else {
+        b.p[0]
+    };
+    [s, fa, fb]
 }
 
 /// Reusable buffers of the loop tests: once warm, a test allocates nothing.
@@ -347,16 +355,7 @@ fn pair_slack(a: &Seg, b: &Seg, eps: f64, extent: f64) -> f64 {
         (true, true) => f64::INFINITY,
         (false, false) => 0.5 * (seg_distance(a, b) - 1e-9 * extent),
         (sa0, _) => {
-            let (s, fa) = if sa0 {
-                (a.p[0], a.p[1])
-            } else {
-                (a.p[1], a.p[0])
-            };
-            let fb = if b.v[0] == a.v[if sa0 { 0 } else { 1 }] {
-                b.p[1]
-            } else {
-                b.p[0]
-            };
+            let [s, fa, fb] = shared_start(a, b, sa0);
             adjacent_slack(
                 [fa[0] - s[0], fa[1] - s[1]],
                 [fb[0] - s[0], fb[1] - s[1]],
