@@ -92,16 +92,6 @@ impl KeptCertificates {
         }
     }
 
-    /// Number of certificates kept.
-    pub fn len(&self) -> usize {
-        self.kept.len()
-    }
-
-    /// True when no certificate is kept.
-    pub fn is_empty(&self) -> bool {
-        self.kept.is_empty()
-    }
-
     /// Fits the displacement boxes of `bvh`'s nodes to `positions` and
     /// resets the reference when they spread beyond the cap; returns this
     /// frame's view for the traversal, or None when the plain tests should
@@ -119,7 +109,7 @@ impl KeptCertificates {
             let spread = half_diagonal(&self.spread[bvh.root() as usize]);
             reset = !(spread <= RESET * self.cap);
         }
-        let (reset_last, plain) = (self.reset_last, reset && self.reset_last);
+        let reset_last = self.reset_last;
         self.reset_last = reset;
         if reset {
             self.reset(positions);
@@ -128,7 +118,6 @@ impl KeptCertificates {
             }
             self.fit(bvh, tris, positions);
         }
-        debug_assert!(!plain);
         Some(Reuse {
             kept: &self.kept,
             spread: &self.spread,

@@ -731,6 +731,23 @@ mod tests {
             .collect()
     }
 
+    /// A U: simple, not star-shaped about its box centre (1.5, 1.5).
+    fn u_shape() -> Vec<Seg> {
+        loop_of(
+            &[
+                [0., 0.],
+                [3., 0.],
+                [3., 3.],
+                [2., 3.],
+                [2., 1.],
+                [1., 1.],
+                [1., 3.],
+                [0., 3.],
+            ],
+            &[0, 1, 2, 3, 4, 5, 6, 7],
+        )
+    }
+
     /// Moves every vertex of a loop by a random vector of length up to `r`
     /// (the same vertex the same way in both edges that hold it).
     fn jiggle(segs: &[Seg], r: f64, rng: &mut crate::scene::SplitMix) -> Vec<Seg> {
@@ -765,19 +782,7 @@ mod tests {
         let mut rng = crate::scene::SplitMix::new(3);
         let ids: Vec<u32> = (0..8).collect();
         let square = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &ids[..4]);
-        let u = loop_of(
-            &[
-                [0., 0.],
-                [3., 0.],
-                [3., 3.],
-                [2., 3.],
-                [2., 1.],
-                [1., 1.],
-                [1., 3.],
-                [0., 3.],
-            ],
-            &ids,
-        );
+        let u = u_shape();
         let star = star_slack(&square, [0.5, 0.5]).unwrap();
         assert!(star > 0.1 && star < 0.5, "{star}");
         assert_eq!(star_slack(&u, [1.5, 1.5]), None);
@@ -830,19 +835,7 @@ mod tests {
         let bowtie = loop_of(&[[0., 0.], [1., 1.], [1., 0.], [0., 1.]], &[0, 1, 2, 3]);
         assert!(!simple_ccw_loop(&bowtie, &mut LoopScratch::default()));
         // A U shape: simple but not star-shaped about its box centre.
-        let u = loop_of(
-            &[
-                [0., 0.],
-                [3., 0.],
-                [3., 3.],
-                [2., 3.],
-                [2., 1.],
-                [1., 1.],
-                [1., 3.],
-                [0., 3.],
-            ],
-            &[0, 1, 2, 3, 4, 5, 6, 7],
-        );
+        let u = u_shape();
         assert!(simple_ccw_loop(&u, &mut LoopScratch::default()) && !star_about(&u, [1.5, 1.5]));
         // Twice around: every edge has the centre on its left, but it winds twice.
         let twice: Vec<[f64; 2]> = (0..8)
