@@ -8,6 +8,7 @@
 //! `REPS = 0` only builds the detector (for profiling the build alone);
 //! `PROF_BUILDS=k` builds it k times and reports the best build time;
 //! `PROF_MAIN_THREAD=1` runs everything on the main thread (for callgrind);
+//! `PROF_EACH=1` prints every detection's times and contour work;
 //! `PROF_WAVE=1` detects on a sequence of four frames cycled (the frame
 //! plus a wave of 0.05 mean edges, wavelength 16 mean edges, phase 0.7 k:
 //! the per-frame sequence of `scripts/bench_peers.py`) instead of one. The
@@ -77,12 +78,22 @@ fn main() {
     } else {
         vec![p]
     };
+    let each = std::env::var("PROF_EACH").is_ok_and(|x| x == "1");
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
     let mut first = 0.0;
     for r in 0..reps {
         let s = d.detect(&frames[r % frames.len()]).unwrap().stats;
         if r == 0 {
             first = s.refit_time + s.traverse_time;
+        }
+        if each {
+            println!(
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}",
+                s.refit_time * 1e3,
+                s.traverse_time * 1e3,
+                s.contour_tests,
+                s.certificates_reused
+            );
         }
         refit = refit.min(s.refit_time);
         trav = trav.min(s.traverse_time);
