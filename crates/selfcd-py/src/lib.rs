@@ -6,6 +6,10 @@
 //! for Ctrl-C during a long call), and a panic (which the engine should never
 //! raise) becomes a `RuntimeError` instead of unwinding into the interpreter.
 
+/// mimalloc: see Cargo.toml.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 mod bench;
 mod cloth;
 mod compare;

@@ -13,6 +13,8 @@ use selfcd::cloth::{Material, PaperScene, Preconditioner, SimOptions, Simulation
 use selfcd::detect::Method;
 use std::process::ExitCode;
 
+#[path = "common/allocator.rs"]
+mod allocator;
 fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,6 +24,8 @@ use selfcd::detect::Method;
 use std::process::ExitCode;
 use std::time::Instant;
 
+#[path = "common/allocator.rs"]
+mod allocator;
 fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,

@@ -18,6 +18,8 @@
 use selfcd::{new_detector, DetectorOptions, Method};
 use std::time::Instant;
 
+#[path = "common/allocator.rs"]
+mod allocator;
 #[path = "common/input.rs"]
 mod input;
 #[path = "common/obj.rs"]
@@ -88,11 +90,13 @@ fn main() {
         }
         if each {
             println!(
-                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}",
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}",
                 s.refit_time * 1e3,
                 s.traverse_time * 1e3,
                 s.contour_tests,
-                s.certificates_reused
+                s.certificates_reused,
+                s.primitive_tests,
+                s.filter_decisions
             );
         }
         refit = refit.min(s.refit_time);

@@ -22,6 +22,8 @@ use selfcd::detect::narrow::{collect_proximity, Proximity, DEFAULT_MAX_CONTACTS}
 use selfcd::{DVec3, FrameStats, Mesh, Method};
 use std::time::Instant;
 
+#[path = "common/allocator.rs"]
+mod allocator;
 #[path = "common/input.rs"]
 mod input;
 #[path = "common/obj.rs"]

@@ -19,6 +19,8 @@ use selfcd::{new_detector, DetectorOptions, Mesh, Method};
 use std::sync::Arc;
 use std::time::Instant;
 
+#[path = "common/allocator.rs"]
+mod allocator;
 #[path = "common/obj.rs"]
 mod obj;
 use obj::read_obj;
