@@ -65,6 +65,9 @@ def warn_if_unwelded(vertices: np.ndarray, faces: np.ndarray, stacklevel: int = 
     faces = np.asarray(faces)
     if len(vertices) == 0 or faces.size == 0 or faces.min() < 0 or faces.max() >= len(vertices):
         return  # nothing to weld, or bad indices for the engine to name
+    first, _ = _groups(vertices)
+    if len(first) == len(vertices):
+        return  # every position distinct (the common case): nothing to weld
     shared = len(vertices) - len(weld(vertices, faces)[2])
     if shared > 0:
         warnings.warn(

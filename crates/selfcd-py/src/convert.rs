@@ -18,6 +18,11 @@ fn check_cols(shape: &[usize], what: &str) -> PyResult<()> {
 /// An (n,3) float64 array as points.
 pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DVec3>> {
     check_cols(a.shape(), what)?;
+    if let Ok(flat) = a.as_slice() {
+        // C order, the common case: one pass over the buffer.
+        let p = flat.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2]));
+        return Ok(p.collect());
+    }
     Ok(a.as_array()
         .rows()
         .into_iter()
@@ -33,6 +38,14 @@ pub fn triples(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 
 /// An (m,3) int64 array as triangles; negative or too-large indices are named.
 pub fn triangles(a: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
     check_cols(a.shape(), "faces")?;
+    if let Ok(flat) = a.as_slice() {
+        // C order, the common case: one pass over the buffer.
+        let fits = flat.iter().all(|&i| u32::try_from(i).is_ok());
+        if fits {
+            let tri = |c: &[i64]| [c[0] as u32, c[1] as u32, c[2] as u32];
+            return Ok(flat.chunks_exact(3).map(tri).collect());
+        }
+    }
     let view = a.as_array();
     let mut out = Vec::with_capacity(view.nrows());
     for (t, r) in view.rows().into_iter().enumerate() {

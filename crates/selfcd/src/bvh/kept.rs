@@ -92,20 +92,32 @@ impl KeptCertificates {
         }
     }
 
-    /// Fits the displacement boxes of `bvh`'s nodes to `positions` and
-    /// resets the reference when they spread beyond the cap; returns this
-    /// frame's view for the traversal, or None when the plain tests should
-    /// run (the reference was reset this frame and the last).
-    pub fn frame<'a>(
+    /// Refits `bvh` to `positions` and, in the same passes, the displacement
+    /// boxes of its nodes; resets the reference when they spread beyond the
+    /// cap. Returns this frame's view for the traversal, or None when the
+    /// plain tests should run (the reference was reset this frame and the last).
+    pub fn refit<'a>(
         &'a mut self,
-        bvh: &Bvh,
+        bvh: &mut Bvh,
         mesh: &Mesh,
         positions: &[DVec3],
     ) -> Option<Reuse<'a>> {
-        let tris = mesh.triangles();
         let mut reset = self.reference.len() != positions.len();
-        if !reset {
-            self.fit(bvh, tris, positions);
+        if reset {
+            bvh.refit(mesh, positions);
+        } else {
+            let (tris, r) = (mesh.triangles(), &self.reference);
+            self.spread.resize(bvh.n_nodes(), Aabb::EMPTY);
+            bvh.refit_also(
+                mesh,
+                positions,
+                &mut self.spread,
+                |t, x| {
+                    let [a, b, c] = tris[t].map(|v| r[v as usize]);
+                    Aabb::from_points(&[x[0] - a, x[1] - b, x[2] - c])
+                },
+                Aabb::union,
+            );
             let spread = half_diagonal(&self.spread[bvh.root() as usize]);
             reset = !(spread <= RESET * self.cap);
         }
@@ -116,7 +128,13 @@ impl KeptCertificates {
             if reset_last {
                 return None;
             }
-            self.fit(bvh, tris, positions);
+            // Displacements from the new reference are exactly zero.
+            let zero = Aabb {
+                min: DVec3::ZERO,
+                max: DVec3::ZERO,
+            };
+            self.spread.clear();
+            self.spread.resize(bvh.n_nodes(), zero);
         }
         Some(Reuse {
             kept: &self.kept,
@@ -135,19 +153,6 @@ impl KeptCertificates {
         self.reference.clear();
         self.reference.extend_from_slice(positions);
         self.kept.clear();
-    }
-
-    fn fit(&mut self, bvh: &Bvh, tris: &[[u32; 3]], positions: &[DVec3]) {
-        let r = &self.reference;
-        self.spread.resize(bvh.n_nodes(), Aabb::EMPTY);
-        bvh.fit_nodes(
-            &mut self.spread,
-            |t| {
-                let d = tris[t].map(|v| positions[v as usize] - r[v as usize]);
-                Aabb::from_points(&d)
-            },
-            Aabb::union,
-        );
     }
 }
 

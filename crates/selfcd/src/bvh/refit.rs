@@ -14,13 +14,28 @@ impl Bvh {
     /// Refits every box and cone to `positions` (same vertex count as the mesh,
     /// checked by the caller).
     pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
-        self.refit_with(|t| {
+        self.refit_also(mesh, positions, &mut [], |_, _| (), |_, _| ());
+    }
+
+    /// [`refit`](Self::refit), also filling `values` (one per node) in the
+    /// same passes: `leaf(t, corners)` for leaf `t`, the `merge` of the
+    /// children for every internal node. One walk over the triangles instead
+    /// of two (the kept certificates' displacement boxes). Empty `values`
+    /// fill nothing.
+    pub fn refit_also<T: Copy + Send + Sync>(
+        &mut self,
+        mesh: &Mesh,
+        positions: &[DVec3],
+        values: &mut [T],
+        leaf: impl Fn(usize, &[DVec3; 3]) -> T + Sync,
+        merge: impl Fn(&T, &T) -> T + Sync,
+    ) {
+        let fit = |t| {
             let c = mesh.corners(positions, t);
-            (
-                Aabb::from_points(&c),
-                NormalCone::of_triangle(c[0], c[1], c[2]),
-            )
-        });
+            let cone = NormalCone::of_triangle(c[0], c[1], c[2]);
+            (Aabb::from_points(&c), cone, leaf(t, &c))
+        };
+        self.refit_with(values, fit, merge);
     }
 
     /// Refits the boxes to the triangles swept linearly from `x0` to `x1` (for
@@ -28,45 +43,67 @@ impl Bvh {
     /// culling applies. [`refit_swept_cones`](Self::refit_swept_cones) fits
     /// the cones too, for the swept certificate at thickness 0.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
-        self.refit_with(|t| {
+        let fit = |t| {
             let b = Aabb::from_points(&mesh.corners(x0, t))
                 .union(&Aabb::from_points(&mesh.corners(x1, t)));
-            (b, NormalCone::FULL)
-        });
+            (b, NormalCone::FULL, ())
+        };
+        self.refit_with(&mut [], fit, |_, _| ());
     }
 
     /// Refits the boxes to the swept triangles, as [`refit_swept`](Self::refit_swept),
     /// and the cones to their normals over the whole motion
     /// ([`NormalCone::of_swept_triangle`]), for the swept certificate.
     pub fn refit_swept_cones(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
-        self.refit_with(|t| {
+        let fit = |t| {
             let (c0, c1) = (mesh.corners(x0, t), mesh.corners(x1, t));
             let b = Aabb::from_points(&c0).union(&Aabb::from_points(&c1));
-            (b, NormalCone::of_swept_triangle(c0, c1))
-        });
+            (b, NormalCone::of_swept_triangle(c0, c1), ())
+        };
+        self.refit_with(&mut [], fit, |_, _| ());
     }
 
-    /// Sets every leaf's box and cone from `leaf(triangle)`, then merges upwards.
-    fn refit_with(&mut self, leaf: impl Fn(usize) -> (Aabb, NormalCone) + Sync) {
+    /// Sets every leaf's box, cone and value (when `values` is not empty)
+    /// from `leaf(triangle)`, then merges upwards.
+    fn refit_with<T: Copy + Send + Sync>(
+        &mut self,
+        values: &mut [T],
+        leaf: impl Fn(usize) -> (Aabb, NormalCone, T) + Sync,
+        merge: impl Fn(&T, &T) -> T + Sync,
+    ) {
         let n = self.n_leaves;
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
-        if n >= PAR_MIN {
-            boxes
-                .par_iter_mut()
-                .zip(cones.par_iter_mut())
+        let set = |t: usize, b: &mut Aabb, c: &mut NormalCone, v: Option<&mut T>| {
+            let (lb, lc, lv) = leaf(t);
+            (*b, *c) = (lb, lc);
+            if let Some(v) = v {
+                *v = lv;
+            }
+        };
+        let par = n >= PAR_MIN;
+        match values.get_mut(..n) {
+            Some(vals) if par => (boxes, cones, vals)
+                .into_par_iter()
                 .enumerate()
-                .for_each(|(t, (b, c))| (*b, *c) = leaf(t));
-        } else {
-            boxes
-                .iter_mut()
-                .zip(cones.iter_mut())
+                .for_each(|(t, (b, c, v))| set(t, b, c, Some(v))),
+            Some(vals) => (boxes.iter_mut().zip(cones).zip(vals))
                 .enumerate()
-                .for_each(|(t, (b, c))| (*b, *c) = leaf(t));
+                .for_each(|(t, ((b, c), v))| set(t, b, c, Some(v))),
+            None if par => (boxes, cones)
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(t, (b, c))| set(t, b, c, None)),
+            None => (boxes.iter_mut().zip(cones))
+                .enumerate()
+                .for_each(|(t, (b, c))| set(t, b, c, None)),
         }
         let mut boxes = std::mem::take(&mut self.boxes);
         let mut cones = std::mem::take(&mut self.cones);
         self.merge_up(&mut boxes, Aabb::union);
         self.merge_up(&mut cones, NormalCone::merge);
+        if !values.is_empty() {
+            self.merge_up(values, merge);
+        }
         (self.boxes, self.cones) = (boxes, cones);
     }
 

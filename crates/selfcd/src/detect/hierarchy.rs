@@ -140,9 +140,9 @@ impl Detector for BvhDetector {
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.mesh.check_positions(positions)?;
         let t0 = Instant::now();
-        self.refit(positions);
         self.frames += 1;
         if self.method != Method::BvhConesContour || self.frames < 2 {
+            self.refit(positions);
             let refit_time = t0.elapsed().as_secs_f64();
             let mut det = self.traverse(positions)?;
             det.stats.refit_time = refit_time;
@@ -154,7 +154,7 @@ impl Detector for BvhDetector {
             .kept
             .take()
             .unwrap_or_else(|| KeptCertificates::new(cap));
-        let reuse = kept.frame(&self.bvh, &self.mesh, positions);
+        let reuse = kept.refit(&mut self.bvh, &self.mesh, positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let det = self.traverse_with(positions, reuse.as_ref());
         if let Some(fresh) = reuse.map(Reuse::into_fresh) {
