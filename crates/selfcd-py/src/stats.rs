@@ -29,6 +29,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("contour_tests", U(s.contour_tests)),
         ("contour_fails", U(s.contour_fails)),
         ("certificates_reused", U(s.certificates_reused)),
+        ("slab_culls", U(s.slab_culls)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("primitive_tests", U(s.primitive_tests)),
         ("filter_decisions", U(s.filter_decisions)),

@@ -22,6 +22,9 @@ pub struct FrameStats {
     /// Culls decided by a contour certificate kept from an earlier frame
     /// (reused work; not in `contour_tests`, which counts fresh tests).
     pub certificates_reused: u64,
+    /// Node pairs with overlapping boxes found apart along a node's cone
+    /// axis ([`crate::geom::Slab`]; only when the detector fits slabs).
+    pub slab_culls: u64,
     /// Leaf pairs skipped because the triangles share a vertex.
     pub adjacent_skips: u64,
     /// Triangle-triangle tests run: the paper's polygon-polygon checks.
@@ -79,6 +82,8 @@ pub struct Counters {
     pub contour_fails: u64,
     /// See [`FrameStats::certificates_reused`].
     pub certificates_reused: u64,
+    /// See [`FrameStats::slab_culls`].
+    pub slab_culls: u64,
     /// See [`FrameStats::adjacent_skips`].
     pub adjacent_skips: u64,
     /// See [`FrameStats::primitive_tests`].
@@ -96,6 +101,7 @@ impl Counters {
         self.contour_tests += o.contour_tests;
         self.contour_fails += o.contour_fails;
         self.certificates_reused += o.certificates_reused;
+        self.slab_culls += o.slab_culls;
         self.adjacent_skips += o.adjacent_skips;
         self.primitive_tests += o.primitive_tests;
         self.filter_decisions += o.filter_decisions;
@@ -109,6 +115,7 @@ impl Counters {
         s.contour_tests += self.contour_tests;
         s.contour_fails += self.contour_fails;
         s.certificates_reused += self.certificates_reused;
+        s.slab_culls += self.slab_culls;
         s.adjacent_skips += self.adjacent_skips;
         s.primitive_tests += self.primitive_tests;
         s.filter_decisions += self.filter_decisions;
@@ -122,6 +129,7 @@ impl Counters {
         s.contour_tests = self.contour_tests;
         s.contour_fails = self.contour_fails;
         s.certificates_reused = self.certificates_reused;
+        s.slab_culls = self.slab_culls;
         s.adjacent_skips = self.adjacent_skips;
         s.primitive_tests = self.primitive_tests;
         s.filter_decisions = self.filter_decisions;

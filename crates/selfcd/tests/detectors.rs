@@ -473,3 +473,58 @@ fn kept_certificates_give_the_brute_force_pairs_over_sequences() {
     // the kept certificates depend on the frames only, not on threads).
     assert!(reused > 10_000, "reused {reused}, fresh {fresh}");
 }
+
+#[test]
+fn slabs_give_the_brute_force_answers() {
+    use selfcd::detect::hierarchy::BvhDetector;
+    use selfcd::Detector;
+    let mut culls = 0;
+    for (mname, mesh) in meshes() {
+        for (sname, shape) in shapes() {
+            let target = shape.apply(mesh.rest());
+            let d = 0.6 * mesh.mean_edge_length();
+            // Half-way, fully deformed, and a layer stacked a tenth of an edge above.
+            let half: Vec<DVec3> = mesh
+                .rest()
+                .iter()
+                .zip(&target)
+                .map(|(a, b)| a.lerp(*b, 0.5))
+                .collect();
+            for p in [half, target] {
+                let want = detect(&mesh, Method::Brute, &p, d);
+                for m in [Method::Bvh, Method::BvhCones, Method::BvhConesContour] {
+                    let mut det = BvhDetector::new(mesh.clone(), m, d);
+                    det.force_slabs(Some(true));
+                    let got = det.detect(&p).unwrap();
+                    culls += got.stats.slab_culls;
+                    if m != Method::BvhCones {
+                        assert_eq!(got.pairs, want.pairs, "{m} with slabs on {mname}/{sname}");
+                    }
+                    assert!(
+                        got.proximity == want.proximity,
+                        "{m} proximity with slabs on {mname}/{sname}"
+                    );
+                }
+            }
+        }
+    }
+    // Two sheets a tenth of an edge apart: boxes overlap, slabs do not.
+    let (v, f) = grid(21, 1.0);
+    let mut v2 = v.clone();
+    v2.extend(v.iter().map(|p| [p[0], p[1], p[2] + 0.005]));
+    let mut f2 = f.clone();
+    f2.extend(f.iter().map(|t| t.map(|i| i + v.len() as u32)));
+    let mesh = Arc::new(Mesh::new(v2, f2).unwrap());
+    let p = Deformation::Twist { turns: 0.1 }.apply(mesh.rest());
+    let mut det = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
+    det.force_slabs(Some(true));
+    let got = det.detect(&p).unwrap();
+    assert_eq!(got.pairs, detect(&mesh, Method::Brute, &p, 0.0).pairs);
+    culls += got.stats.slab_culls;
+    assert!(
+        got.stats.slab_culls > 100,
+        "stacked sheets: {:?}",
+        got.stats
+    );
+    println!("slab culls {culls}");
+}

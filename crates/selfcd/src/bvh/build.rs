@@ -75,6 +75,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
         levels,
         boxes,
         cones,
+        slabs: Vec::new(),
         patches: patches.finish(component),
     }
 }

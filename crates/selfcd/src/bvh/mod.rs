@@ -13,7 +13,7 @@ pub mod patch;
 pub mod refit;
 pub mod traverse;
 
-use crate::geom::{Aabb, NormalCone};
+use crate::geom::{Aabb, NormalCone, Slab};
 use crate::mesh::Csr;
 
 /// A flat, bottom-up BVH with per-node boxes, normal cones and contours.
@@ -30,6 +30,9 @@ pub struct Bvh {
     pub boxes: Vec<Aabb>,
     /// Normal cone of every node, refitted each frame.
     pub cones: Vec<NormalCone>,
+    /// Slab of every node along its cone's axis ([`Slab`]) when fitted
+    /// ([`Bvh::fit_slabs`], after a refit); empty otherwise.
+    pub slabs: Vec<Slab>,
     /// Contour and patch topology of every node, fixed at build time.
     pub patches: patch::Patches,
 }
@@ -64,6 +67,7 @@ impl Bvh {
         self.children.capacity() * size_of::<[u32; 2]>()
             + self.boxes.capacity() * size_of::<Aabb>()
             + self.cones.capacity() * size_of::<NormalCone>()
+            + self.slabs.capacity() * size_of::<Slab>()
             + csr(&self.patches.contour)
             + csr(&self.patches.boundary)
             + self.patches.euler.capacity() * 4

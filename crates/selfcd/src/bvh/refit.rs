@@ -2,7 +2,8 @@
 //! children. O(n), parallel within a level; the structure never changes.
 
 use super::Bvh;
-use crate::geom::{Aabb, NormalCone};
+use crate::geom::slab::carry_error;
+use crate::geom::{Aabb, NormalCone, Slab};
 use crate::mesh::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -72,6 +73,7 @@ impl Bvh {
         merge: impl Fn(&T, &T) -> T + Sync,
     ) {
         let n = self.n_leaves;
+        self.slabs.clear(); // stale now; `fit_slabs` refits them
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
         let set = |t: usize, b: &mut Aabb, c: &mut NormalCone, v: Option<&mut T>| {
             let (lb, lc, lv) = leaf(t);
@@ -107,6 +109,50 @@ impl Bvh {
         (self.boxes, self.cones) = (boxes, cones);
     }
 
+    /// Fits every node's slab along its cone's axis ([`Slab`]) to
+    /// `positions`, the positions of the last refit. The slabs hold until
+    /// the next refit; none are fitted (and none bound anything) where
+    /// coordinates exceed 1e300.
+    pub fn fit_slabs(&mut self, mesh: &Mesh, positions: &[DVec3]) {
+        let Some(err) = self.slab_error() else {
+            self.slabs.clear();
+            return;
+        };
+        let n = self.n_leaves;
+        let cones = &self.cones;
+        self.slabs.resize(self.boxes.len(), Slab::ALL);
+        self.slabs[..n]
+            .par_iter_mut()
+            .with_min_len(PAR_MIN)
+            .enumerate()
+            .for_each(|(t, s)| *s = Slab::of_corners(cones[t].axis, &mesh.corners(positions, t)));
+        let mut slabs = std::mem::take(&mut self.slabs);
+        let (boxes, cones) = (&self.boxes, &self.cones);
+        self.fit_up(&mut slabs, |p, kids, done| {
+            let v = cones[p].axis;
+            let carried = kids.map(|k| {
+                let k = k as usize;
+                done[k].carry(cones[k].axis, &boxes[k], v)
+            });
+            let own = Slab::of_box(v, &boxes[p]);
+            carried[0].union(&carried[1]).intersect(&own).widen(err)
+        });
+        self.slabs = slabs;
+    }
+
+    /// True when [`fit_slabs`](Self::fit_slabs) fitted the slabs to the
+    /// last refit.
+    pub fn has_slabs(&self) -> bool {
+        self.slabs.len() == self.boxes.len()
+    }
+
+    /// The rounding margin of a carry between this hierarchy's slabs
+    /// ([`carry_error`] of the root box's largest coordinate), or None.
+    pub fn slab_error(&self) -> Option<f64> {
+        let root = self.boxes.last()?;
+        carry_error(root.min.abs().max(root.max.abs()).max_element())
+    }
+
     /// Fills `values` (one per node) bottom-up: `leaf(t)` for leaf `t`, the
     /// `merge` of the children for every internal node; parallel within a
     /// build level. For per-node bounds of other per-vertex data (the
@@ -139,21 +185,31 @@ impl Bvh {
         values: &mut [T],
         merge: impl Fn(&T, &T) -> T + Sync,
     ) {
+        self.fit_up(values, |_, [l, r], done| {
+            merge(&done[l as usize], &done[r as usize])
+        });
+    }
+
+    /// Sets every internal node `p` of `values` to `fit(p, children of p,
+    /// done)`, level by level, where `done` holds the values of every node
+    /// below the level (leaves already set); parallel within a level.
+    fn fit_up<T: Copy + Send + Sync>(
+        &self,
+        values: &mut [T],
+        fit: impl Fn(usize, [u32; 2], &[T]) -> T + Sync,
+    ) {
         let n = self.n_leaves;
         for level in &self.levels {
             let (lo, hi) = (level.start as usize, level.end as usize);
             // Children of this level all have ids below `lo`.
             let (done, rest) = values.split_at_mut(lo);
             let kids = &self.children[lo - n..hi - n];
-            let fit = |(i, v): (usize, &mut T)| {
-                let [l, r] = kids[i];
-                *v = merge(&done[l as usize], &done[r as usize]);
-            };
+            let set = |(i, v): (usize, &mut T)| *v = fit(lo + i, kids[i], done);
             let out = &mut rest[..hi - lo];
             if hi - lo >= PAR_MIN {
-                out.par_iter_mut().enumerate().for_each(fit);
+                out.par_iter_mut().enumerate().for_each(set);
             } else {
-                out.iter_mut().enumerate().for_each(fit);
+                out.iter_mut().enumerate().for_each(set);
             }
         }
     }

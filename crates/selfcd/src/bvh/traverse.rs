@@ -3,12 +3,15 @@
 //! ```text
 //! self(N)    = nothing if N is a leaf or culled(N), else
 //!              self(left) + self(right) + pair(left, right)
-//! pair(A, B) = nothing if the boxes are apart, or if pair_culled(A, B); the
-//!              primitive test if both are leaves; else pair over the children
-//!              of the node with the bigger box.
+//! pair(A, B) = nothing if the boxes are apart, or the slabs (when fitted),
+//!              or if pair_culled(A, B); the primitive test if both are
+//!              leaves; else pair over the children of the node with the
+//!              bigger box.
 //! ```
-//! The traversal knows boxes and the [`Cull`] callbacks only (as parry's BVTT
-//! traversal); what a cull means lives in [`super::certify`]. The pair of
+//! The traversal knows boxes, slabs ([`crate::geom::Slab`]: bounds along
+//! each node's cone axis, a second bounding volume for near-parallel
+//! layers) and the [`Cull`] callbacks only (as parry's BVTT traversal); what
+//! a cull means lives in [`super::certify`]. The pair of
 //! siblings under a node that was not culled is never offered to
 //! `pair_culled`: their union is the node, already refused.
 //!
@@ -98,6 +101,10 @@ pub fn traverse<C: Cull, V: LeafVisitor>(
         bvh,
         mesh,
         gap,
+        slab_gap: bvh
+            .has_slabs()
+            .then(|| bvh.slab_error().map(|e| gap + e))
+            .flatten(),
         cull,
         visitor,
     };
@@ -112,6 +119,9 @@ struct Ctx<'a, C, V> {
     bvh: &'a Bvh,
     mesh: &'a Mesh,
     gap: f64,
+    /// The gap slabs must exceed: `gap` plus the carry's rounding, or None
+    /// where slabs bound nothing.
+    slab_gap: Option<f64>,
     cull: &'a C,
     visitor: &'a V,
 }
@@ -259,6 +269,23 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         );
     }
 
+    /// Are the nodes apart along either's cone axis ([`crate::geom::Slab`])?
+    /// Only tried for axes within about 45 degrees of each other (beyond,
+    /// a carried slab is about as wide as the box).
+    #[inline]
+    fn slabs_apart(&self, a: u32, b: u32) -> bool {
+        let Some(gap) = self.slab_gap else {
+            return false;
+        };
+        let (bvh, (a, b)) = (self.bvh, (a as usize, b as usize));
+        let (ua, ub) = (bvh.cones[a].axis, bvh.cones[b].axis);
+        if ua.dot(ub).abs() < 0.7 {
+            return false;
+        }
+        let (sa, sb) = (&bvh.slabs[a], &bvh.slabs[b]);
+        sa.apart(&sb.carry(ub, &bvh.boxes[b], ua), gap)
+    }
+
     /// One step of pair(a, b): tests and culls, and returns the pairs to descend
     /// into as (node kept, children of the node split), or None when done.
     #[inline]
@@ -273,6 +300,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         acc.counters.node_pairs += 1;
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         if !ba.within(bb, self.gap) {
+            return None;
+        }
+        if self.slabs_apart(a, b) {
+            acc.counters.slab_culls += 1;
             return None;
         }
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));

@@ -8,7 +8,7 @@ use crate::bvh::traverse::{self_traverse, traverse, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
 use crate::mesh::Mesh;
-use crate::stats::Counters;
+use crate::stats::{Counters, FrameStats};
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;
@@ -25,6 +25,39 @@ pub struct BvhDetector {
     max_contacts: usize,
     kept: Option<KeptCertificates>,
     frames: u64,
+    slabs: SlabPolicy,
+}
+
+/// When a detector fits slabs ([`Bvh::fit_slabs`]): they cull node pairs
+/// whose boxes overlap but which lie apart along their normals (layers of
+/// cloth closer than their triangles are wide), and cost about as much as
+/// the refit. So they are fitted for a frame when the last frame flooded
+/// the narrow phase (more than [`FLOOD`] triangle tests per triangle), and
+/// kept while they cull at least one in [`KEEP`] of the node pairs tested;
+/// or always, or never, when forced.
+#[derive(Debug, Clone, Copy, Default)]
+struct SlabPolicy {
+    on: bool,
+    forced: Option<bool>,
+}
+
+/// Triangle tests per triangle that turn slabs on.
+const FLOOD: u64 = 2;
+/// Slabs stay on while they cull one node pair in this many.
+const KEEP: u64 = 8;
+
+impl SlabPolicy {
+    fn fit(&self) -> bool {
+        self.forced.unwrap_or(self.on)
+    }
+
+    fn update(&mut self, s: &FrameStats, triangles: usize) {
+        self.on = if self.on {
+            s.slab_culls * KEEP >= s.node_pairs
+        } else {
+            s.primitive_tests > FLOOD * triangles as u64
+        };
+    }
 }
 
 /// Kept certificates hold for moves up to this many mean edge lengths.
@@ -42,7 +75,15 @@ impl BvhDetector {
             max_contacts: DEFAULT_MAX_CONTACTS,
             kept: None,
             frames: 0,
+            slabs: SlabPolicy::default(),
         }
+    }
+
+    /// Fits slabs every frame (`Some(true)`), never (`Some(false)`), or when
+    /// the last frame says they pay (`None`, the default; see the policy in
+    /// the source). Answers are the same either way.
+    pub fn force_slabs(&mut self, on: Option<bool>) {
+        self.slabs.forced = on;
     }
 
     /// The hierarchy, as refitted by the last call.
@@ -138,11 +179,22 @@ impl Detector for BvhDetector {
     }
 
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
+        let det = self.detect_frame(positions)?;
+        self.slabs.update(&det.stats, self.mesh.n_triangles());
+        Ok(det)
+    }
+}
+
+impl BvhDetector {
+    /// One frame of [`Detector::detect`]: refit (with the kept certificates'
+    /// displacement boxes and the slabs when on), then the traversal.
+    fn detect_frame(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.mesh.check_positions(positions)?;
         let t0 = Instant::now();
         self.frames += 1;
         if self.method != Method::BvhConesContour || self.frames < 2 {
             self.refit(positions);
+            self.fit_slabs(positions);
             let refit_time = t0.elapsed().as_secs_f64();
             let mut det = self.traverse(positions)?;
             det.stats.refit_time = refit_time;
@@ -155,6 +207,7 @@ impl Detector for BvhDetector {
             .take()
             .unwrap_or_else(|| KeptCertificates::new(cap));
         let reuse = kept.refit(&mut self.bvh, &self.mesh, positions);
+        self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let det = self.traverse_with(positions, reuse.as_ref());
         if let Some(fresh) = reuse.map(Reuse::into_fresh) {
@@ -164,5 +217,12 @@ impl Detector for BvhDetector {
         let mut det = det?;
         det.stats.refit_time = refit_time;
         Ok(det)
+    }
+
+    /// Fits the slabs to the refitted hierarchy when the policy says so.
+    fn fit_slabs(&mut self, positions: &[DVec3]) {
+        if self.slabs.fit() {
+            self.bvh.fit_slabs(&self.mesh, positions);
+        }
     }
 }

@@ -7,7 +7,9 @@ pub mod distance;
 pub mod exact_int;
 pub mod loop2d;
 pub mod predicates;
+pub mod slab;
 pub mod tri_tri;
 
 pub use aabb::Aabb;
 pub use cone::NormalCone;
+pub use slab::Slab;
