@@ -265,6 +265,14 @@ def timed(fn: Callable[[], Any]) -> tuple[float, Any]:
     return time.perf_counter() - t0, out
 
 
+def rotated(names: list[str], rep: int) -> list[str]:
+    """The runners' order in run `rep`, rotated by one each run: a runner timed right
+    after a given other one (warp's CPU threads keep a core busy for a while after
+    its calls) would otherwise pay for that neighbour in every run."""
+    k = rep % len(names)
+    return names[k:] + names[:k]
+
+
 def med_ms(times: list[float]) -> float:
     return 1e3 * statistics.median(times) if times else float("nan")
 
@@ -307,7 +315,8 @@ def per_frame(inp: Input, reps: int, warp: Warp | None, tick: Callable[[str], No
     times: dict[str, list[float]] = {k: [] for k in runners}
     last: dict[str, list[np.ndarray]] = {k: [] for k in runners}
     for rep in range(reps + 1):  # run 0 is the warm-up
-        for k, run in runners.items():
+        for k in rotated(list(runners), rep):
+            run = runners[k]
             last[k] = []
             for p in inp.frames:
                 t, pairs = timed(lambda run=run, p=p: run(p))
@@ -335,8 +344,8 @@ def one_shot(inp: Input, reps: int, warp: Warp | None, igl: Any, tick: Callable[
     times: dict[str, list[float]] = {k: [] for k in runners}
     out: dict[str, np.ndarray] = {}
     for rep in range(reps + 1):
-        for k, run in runners.items():
-            t, out[k] = timed(run)
+        for k in rotated(list(runners), rep):
+            t, out[k] = timed(runners[k])
             if rep:
                 times[k].append(t)
             tick(f"{inp.name} one-shot {k}")
@@ -429,8 +438,8 @@ def continuous(inp: Input, reps: int, ipctk: Any, tick: Callable[[str], None]) -
     times: dict[str, list[float]] = {k: [] for k in runners}
     out: dict[str, Any] = {}
     for rep in range(reps + 1):
-        for k, run in runners.items():
-            t, out[k] = timed(run)
+        for k in rotated(list(runners), rep):
+            t, out[k] = timed(runners[k])
             if rep:
                 times[k].append(t)
             tick(f"{inp.name} continuous {k}")
