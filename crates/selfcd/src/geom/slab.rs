@@ -134,7 +134,7 @@ impl Slab {
 /// `m` exceeds 1e300, where a carry could overflow: no slab bounds anything there.
 #[inline]
 pub fn carry_error(m: f64) -> Option<f64> {
-    (m <= 1e300).then(|| 1e-13 * m + 1e-300)
+    (m <= 1e300).then_some(1e-13 * m + 1e-300)
 }
 
 #[cfg(test)]
