@@ -10,7 +10,7 @@
 //! **Along another axis.** A set with `u . x` in `[lo, hi]` and `x` in a box
 //! of centre `c` and half-extents `h` has, along `v`, with `s = v . u` and
 //! `w = v - s u`: `v . x = s (u . x) + w . c + w . (x - c)`, so
-//! `v . x` lies in `s [lo, hi] + w . c +- |w| . h` ([`Slab::along`]). The
+//! `v . x` lies in `s [lo, hi] + w . c +- |w| . h` ([`Slab::carry`]). The
 //! bound is tight when `v` is close to `u` (w small): a parent's slab is its
 //! children's slabs carried to its axis, and a pair of nodes is apart when
 //! either's slab is apart from the other's carried to it.
