@@ -269,9 +269,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         );
     }
 
-    /// Are the nodes apart along either's cone axis ([`crate::geom::Slab`])?
-    /// Only tried for axes within about 45 degrees of each other (beyond,
-    /// a carried slab is about as wide as the box).
+    /// Are the nodes apart along `a`'s cone axis ([`crate::geom::Slab`]:
+    /// `a`'s slab against `b`'s carried to it)? Only tried for axes within
+    /// about 45 degrees of each other: beyond, a carried slab is about as
+    /// wide as the box. (Trying `b`'s axis too cost more than it culled.)
     #[inline]
     fn slabs_apart(&self, a: u32, b: u32) -> bool {
         let Some(gap) = self.slab_gap else {

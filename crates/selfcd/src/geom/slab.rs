@@ -13,7 +13,7 @@
 //! `v . x` lies in `s [lo, hi] + w . c +- |w| . h` ([`Slab::carry`]). The
 //! bound is tight when `v` is close to `u` (w small): a parent's slab is its
 //! children's slabs carried to its axis, and a pair of nodes is apart when
-//! either's slab is apart from the other's carried to it.
+//! one's slab is apart from the other's carried to it.
 //!
 //! **Rounding.** Slabs are computed in floating point and widened once for
 //! all: [`carry_error`] bounds the rounding of a triangle's slab and of a
