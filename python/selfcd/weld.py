@@ -45,8 +45,12 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
         vertices map to the welded mesh as positions[source].
     """
     vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64)
-    source, group = _groups(vertices)
+    return _welded(vertices, np.asarray(faces, dtype=np.int64), *_groups(vertices))
+
+
+def _welded(vertices: np.ndarray, faces: np.ndarray, source: np.ndarray,
+            group: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`weld` from the position groups `_groups` gave."""
     new_faces = group[faces]
     extra: list[int] = []
     for t in np.flatnonzero((new_faces[:, 0] == new_faces[:, 1]) | (new_faces[:, 1] == new_faces[:, 2])
@@ -65,10 +69,11 @@ def warn_if_unwelded(vertices: np.ndarray, faces: np.ndarray, stacklevel: int = 
     faces = np.asarray(faces)
     if len(vertices) == 0 or faces.size == 0 or faces.min() < 0 or faces.max() >= len(vertices):
         return  # nothing to weld, or bad indices for the engine to name
-    first, _ = _groups(vertices)
+    first, group = _groups(vertices)
     if len(first) == len(vertices):
         return  # every position distinct (the common case): nothing to weld
-    shared = len(vertices) - len(weld(vertices, faces)[2])
+    welded = _welded(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64), first, group)
+    shared = len(vertices) - len(welded[2])
     if shared > 0:
         warnings.warn(
             f"{shared} of {len(vertices)} vertices repeat another vertex's position: faces meeting there "

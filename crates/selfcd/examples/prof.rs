@@ -9,13 +9,16 @@
 //! `PROF_BUILDS=k` builds it k times and reports the best build time;
 //! `PROF_MAIN_THREAD=1` runs everything on the main thread (for callgrind);
 //! `PROF_EACH=1` prints every detection's times and contour work;
+//! `PROF_SLABS=1` (or `0`) fits slabs every frame (or never) instead of
+//! when the detector's policy says so (`BvhDetector::force_slabs`);
 //! `PROF_WAVE=1` detects on a sequence of four frames cycled (the frame
 //! plus a wave of 0.05 mean edges, wavelength 16 mean edges, phase 0.7 k:
 //! the per-frame sequence of `scripts/bench_peers.py`) instead of one. The
 //! first detection (refit + traverse) is reported apart from the best: it
 //! also computes the patches the contour test needs (a one-shot query is
 //! build + first detection).
-use selfcd::{new_detector, DetectorOptions, Method};
+use selfcd::detect::hierarchy::BvhDetector;
+use selfcd::{new_detector, Detector, DetectorOptions, Method};
 use std::time::Instant;
 
 #[path = "common/allocator.rs"]
@@ -49,13 +52,21 @@ fn main() {
         thickness: thickness * mesh.mean_edge_length(),
         ..Default::default()
     };
+    let slabs = std::env::var("PROF_SLABS").ok().map(|x| x == "1");
     let n = mesh.n_triangles();
     let mut build = f64::MAX;
     let mut d = None;
     for _ in 0..builds.max(1) {
         drop(d.take());
         let t0 = Instant::now();
-        d = Some(new_detector(mesh.clone(), method, &opts).unwrap());
+        d = Some(match slabs {
+            Some(on) => {
+                let mut b = BvhDetector::new(mesh.clone(), method, opts.thickness);
+                b.force_slabs(Some(on));
+                Box::new(b) as Box<dyn Detector>
+            }
+            None => new_detector(mesh.clone(), method, &opts).unwrap(),
+        });
         build = build.min(t0.elapsed().as_secs_f64());
     }
     let mut d = d.unwrap();
@@ -90,13 +101,15 @@ fn main() {
         }
         if each {
             println!(
-                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}",
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}",
                 s.refit_time * 1e3,
                 s.traverse_time * 1e3,
                 s.contour_tests,
                 s.certificates_reused,
                 s.primitive_tests,
-                s.filter_decisions
+                s.filter_decisions,
+                s.slab_culls,
+                s.node_pairs
             );
         }
         refit = refit.min(s.refit_time);

@@ -29,8 +29,9 @@
 //! mesh's displacement spread exceeds [`RESET`] times the loop test's cap on
 //! its slacks: past it few certificates can still hold. When that happens two frames running (the
 //! mesh moves too much per frame for any certificate to last), the frame
-//! runs the plain tests and records nothing, so fast motion pays nothing
-//! for the slacks.
+//! runs the plain tests and records nothing, and until the mesh settles
+//! each frame checks the whole mesh's spread in one pass over the vertices
+//! instead of fitting the nodes' boxes: fast motion pays that pass only.
 
 use super::Bvh;
 use crate::geom::Aabb;
@@ -102,7 +103,8 @@ impl KeptCertificates {
         mesh: &Mesh,
         positions: &[DVec3],
     ) -> Option<Reuse<'a>> {
-        let mut reset = self.reference.len() != positions.len();
+        let mut reset = self.reference.len() != positions.len()
+            || (self.reset_last && !self.settled(positions));
         if reset {
             bvh.refit(mesh, positions);
         } else {
@@ -147,6 +149,16 @@ impl KeptCertificates {
     /// Adds the certificates made in a frame (`Reuse::into_fresh`).
     pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
         self.kept.extend(fresh);
+    }
+
+    /// After a reset, whether the whole mesh now spreads within the cap,
+    /// from one pass over the vertices (the root's displacement box, or a
+    /// larger one where vertices lie on no triangle): while the mesh moves
+    /// too fast, the nodes' displacement boxes are not fitted at all.
+    fn settled(&self, positions: &[DVec3]) -> bool {
+        let d = positions.iter().zip(&self.reference).map(|(x, r)| *x - *r);
+        let b = d.fold(Aabb::EMPTY, |b, p| b.union(&Aabb::from_points(&[p])));
+        half_diagonal(&b) <= RESET * self.cap
     }
 
     fn reset(&mut self, positions: &[DVec3]) {

@@ -15,14 +15,19 @@ impl Bvh {
     /// Refits every box and cone to `positions` (same vertex count as the mesh,
     /// checked by the caller).
     pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
-        self.refit_also(mesh, positions, &mut [], |_, _| (), |_, _| ());
+        self.refit_also(
+            mesh,
+            positions,
+            &mut none(self.n_nodes()),
+            |_, _| (),
+            |_, _| (),
+        );
     }
 
     /// [`refit`](Self::refit), also filling `values` (one per node) in the
     /// same passes: `leaf(t, corners)` for leaf `t`, the `merge` of the
     /// children for every internal node. One walk over the triangles instead
-    /// of two (the kept certificates' displacement boxes). Empty `values`
-    /// fill nothing.
+    /// of two (the kept certificates' displacement boxes).
     pub fn refit_also<T: Copy + Send + Sync>(
         &mut self,
         mesh: &Mesh,
@@ -49,7 +54,7 @@ impl Bvh {
                 .union(&Aabb::from_points(&mesh.corners(x1, t)));
             (b, NormalCone::FULL, ())
         };
-        self.refit_with(&mut [], fit, |_, _| ());
+        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
     }
 
     /// Refits the boxes to the swept triangles, as [`refit_swept`](Self::refit_swept),
@@ -61,11 +66,12 @@ impl Bvh {
             let b = Aabb::from_points(&c0).union(&Aabb::from_points(&c1));
             (b, NormalCone::of_swept_triangle(c0, c1), ())
         };
-        self.refit_with(&mut [], fit, |_, _| ());
+        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
     }
 
-    /// Sets every leaf's box, cone and value (when `values` is not empty)
-    /// from `leaf(triangle)`, then merges upwards.
+    /// Sets every leaf's box, cone and value from `leaf(triangle)`, then
+    /// merges upwards (values of a zero-sized type, as [`none`], are not
+    /// merged: there is nothing to fill).
     fn refit_with<T: Copy + Send + Sync>(
         &mut self,
         values: &mut [T],
@@ -73,37 +79,29 @@ impl Bvh {
         merge: impl Fn(&T, &T) -> T + Sync,
     ) {
         let n = self.n_leaves;
+        assert_eq!(values.len(), self.n_nodes(), "one value per node");
         self.slabs.clear(); // stale now; `fit_slabs` refits them
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
-        let set = |t: usize, b: &mut Aabb, c: &mut NormalCone, v: Option<&mut T>| {
-            let (lb, lc, lv) = leaf(t);
-            (*b, *c) = (lb, lc);
-            if let Some(v) = v {
-                *v = lv;
-            }
+        let set = |t: usize, (b, c, v): (&mut Aabb, &mut NormalCone, &mut T)| {
+            (*b, *c, *v) = leaf(t);
         };
-        let par = n >= PAR_MIN;
-        match values.get_mut(..n) {
-            Some(vals) if par => (boxes, cones, vals)
+        let leaves = (boxes, cones, &mut values[..n]);
+        if n >= PAR_MIN {
+            leaves
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(t, (b, c, v))| set(t, b, c, Some(v))),
-            Some(vals) => (boxes.iter_mut().zip(cones).zip(vals))
+                .for_each(|(t, x)| set(t, x));
+        } else {
+            let (boxes, cones, vals) = leaves;
+            (boxes.iter_mut().zip(cones).zip(vals))
                 .enumerate()
-                .for_each(|(t, ((b, c), v))| set(t, b, c, Some(v))),
-            None if par => (boxes, cones)
-                .into_par_iter()
-                .enumerate()
-                .for_each(|(t, (b, c))| set(t, b, c, None)),
-            None => (boxes.iter_mut().zip(cones))
-                .enumerate()
-                .for_each(|(t, (b, c))| set(t, b, c, None)),
+                .for_each(|(t, ((b, c), v))| set(t, (b, c, v)));
         }
         let mut boxes = std::mem::take(&mut self.boxes);
         let mut cones = std::mem::take(&mut self.cones);
         self.merge_up(&mut boxes, Aabb::union);
         self.merge_up(&mut cones, NormalCone::merge);
-        if !values.is_empty() {
+        if std::mem::size_of::<T>() > 0 {
             self.merge_up(values, merge);
         }
         (self.boxes, self.cones) = (boxes, cones);
@@ -213,4 +211,10 @@ impl Bvh {
             }
         }
     }
+}
+
+/// No values: one `()` per node, for the refits that fill only boxes and
+/// cones (a zero-sized type: no memory, nothing merged).
+fn none(nodes: usize) -> Vec<()> {
+    vec![(); nodes]
 }

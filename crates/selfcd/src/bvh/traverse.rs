@@ -25,6 +25,11 @@ use crate::mesh::Mesh;
 use crate::stats::Counters;
 use glam::DVec3;
 
+/// Slabs are compared only for cone axes closer than this cosine (about 45
+/// degrees either way): beyond, a slab carried to the other axis is about as
+/// wide as the node's box and never culls.
+const SLAB_AXES_COS: f64 = 0.7;
+
 /// Which culling tests the traversal runs, and how far apart boxes may be.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TraverseOptions {
@@ -271,8 +276,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
 
     /// Are the nodes apart along `a`'s cone axis ([`crate::geom::Slab`]:
     /// `a`'s slab against `b`'s carried to it)? Only tried for axes within
-    /// about 45 degrees of each other: beyond, a carried slab is about as
-    /// wide as the box. (Trying `b`'s axis too cost more than it culled.)
+    /// [`SLAB_AXES_COS`]. (Trying `b`'s axis too cost more than it culled.)
     #[inline]
     fn slabs_apart(&self, a: u32, b: u32) -> bool {
         let Some(gap) = self.slab_gap else {
@@ -280,7 +284,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         };
         let (bvh, (a, b)) = (self.bvh, (a as usize, b as usize));
         let (ua, ub) = (bvh.cones[a].axis, bvh.cones[b].axis);
-        if ua.dot(ub).abs() < 0.7 {
+        if ua.dot(ub).abs() < SLAB_AXES_COS {
             return false;
         }
         let (sa, sb) = (&bvh.slabs[a], &bvh.slabs[b]);

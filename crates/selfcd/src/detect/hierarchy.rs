@@ -167,29 +167,7 @@ impl BvhDetector {
     pub fn set_max_contacts(&mut self, max: usize) {
         self.max_contacts = max;
     }
-}
 
-impl Detector for BvhDetector {
-    fn method(&self) -> Method {
-        self.method
-    }
-
-    fn mesh(&self) -> &Arc<Mesh> {
-        &self.mesh
-    }
-
-    fn set_max_contacts(&mut self, max: usize) {
-        BvhDetector::set_max_contacts(self, max);
-    }
-
-    fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
-        let det = self.detect_frame(positions)?;
-        self.slabs.update(&det.stats, self.mesh.n_triangles());
-        Ok(det)
-    }
-}
-
-impl BvhDetector {
     /// One frame of [`Detector::detect`]: refit (with the kept certificates'
     /// displacement boxes and the slabs when on), then the traversal.
     fn detect_frame(&mut self, positions: &[DVec3]) -> Result<Detection> {
@@ -228,5 +206,25 @@ impl BvhDetector {
         if self.slabs.fit() {
             self.bvh.fit_slabs(&self.mesh, positions);
         }
+    }
+}
+
+impl Detector for BvhDetector {
+    fn method(&self) -> Method {
+        self.method
+    }
+
+    fn mesh(&self) -> &Arc<Mesh> {
+        &self.mesh
+    }
+
+    fn set_max_contacts(&mut self, max: usize) {
+        BvhDetector::set_max_contacts(self, max);
+    }
+
+    fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
+        let det = self.detect_frame(positions)?;
+        self.slabs.update(&det.stats, self.mesh.n_triangles());
+        Ok(det)
     }
 }

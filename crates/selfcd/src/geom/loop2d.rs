@@ -56,8 +56,8 @@ pub fn star_about(segs: &[Seg], c: [f64; 2]) -> bool {
     for s in segs {
         let a = [s.p[0][0] - c[0], s.p[0][1] - c[1]];
         let b = [s.p[1][0] - c[0], s.p[1][1] - c[1]];
-        let cross = a[0] * b[1] - a[1] * b[0];
-        let scale = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
+        let cross = cross(a, b);
+        let scale = len2(a).max(len2(b));
         // Strictly left, with a relative margin far above the rounding of the projection.
         // (NaN or infinite values never pass.)
         if !(scale >= MIN_SCALE2)
@@ -83,9 +83,7 @@ pub fn swept_star_about(start: &[Seg], end: &[Seg], c: [f64; 2]) -> bool {
     if start.len() != end.len() || !star_about(start, c) {
         return false;
     }
-    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
     let rel = |p: [f64; 2]| [p[0] - c[0], p[1] - c[1]];
-    let len2 = |p: [f64; 2]| p[0] * p[0] + p[1] * p[1];
     start.iter().zip(end).all(|(s, e)| {
         let (a0, b0, a1, b1) = (rel(s.p[0]), rel(s.p[1]), rel(e.p[0]), rel(e.p[1]));
         let scale = len2(a0).max(len2(b0)).max(len2(a1)).max(len2(b1));
@@ -121,7 +119,7 @@ pub fn star_slack(segs: &[Seg], c: [f64; 2]) -> Option<f64> {
         let b = [s.p[1][0] - c[0], s.p[1][1] - c[1]];
         let (la, lb) = (len(a), len(b));
         let m = la.max(lb);
-        let v = (a[0] * b[1] - a[1] * b[0]) - 2.25e-9 * m * m;
+        let v = cross(a, b) - 2.25e-9 * m * m;
         if !(v > 0.0 && m * m >= 4.0 * MIN_SCALE2) {
             return 0.0;
         }
@@ -137,9 +135,25 @@ fn quadratic_root(k: f64, b: f64, v: f64) -> f64 {
     2.0 * v / (b + (b * b + 4.0 * k * v).sqrt())
 }
 
+/// 2-D cross product (z of the 3-D one).
+#[inline]
+fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+#[inline]
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+#[inline]
+fn len2(p: [f64; 2]) -> f64 {
+    dot(p, p)
+}
+
 #[inline]
 fn len(p: [f64; 2]) -> f64 {
-    (p[0] * p[0] + p[1] * p[1]).sqrt()
+    len2(p).sqrt()
 }
 
 /// Smallest squared length the margins below are taken relative to. The
@@ -202,7 +216,7 @@ fn edges_clear(a: &Seg, b: &Seg, eps: f64) -> bool {
             // One shared vertex s: the edges leave it in different directions.
             let [s, fa, fb] = shared_start(a, b, sa0);
             let (da, db) = ([fa[0] - s[0], fa[1] - s[1]], [fb[0] - s[0], fb[1] - s[1]]);
-            orient(s, fa, fb).abs() > eps || da[0] * db[0] + da[1] * db[1] < 0.0
+            orient(s, fa, fb).abs() > eps || dot(da, db) < 0.0
         }
     }
 }
@@ -305,10 +319,7 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
     if segs.len() < 3 || !one_cycle(segs, &mut scratch.next) {
         return None;
     }
-    let area2: f64 = segs
-        .iter()
-        .map(|s| s.p[0][0] * s.p[1][1] - s.p[0][1] * s.p[1][0])
-        .sum();
+    let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
     let ext2 = extent2(segs);
     let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
     (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
@@ -371,9 +382,7 @@ fn pair_slack(a: &Seg, b: &Seg, eps: f64, extent: f64) -> f64 {
 /// products by at most `2 s (|da| + |db|) + 4 s^2`: while that stays below
 /// `|cross|`, or below `-dot`, they never point the same way.
 fn adjacent_slack(da: [f64; 2], db: [f64; 2], eps: f64) -> f64 {
-    let cross = da[0] * db[1] - da[1] * db[0];
-    let dot = da[0] * db[0] + da[1] * db[1];
-    let v = cross.abs().max(-dot) - eps;
+    let v = cross(da, db).abs().max(-dot(da, db)) - eps;
     if !(v > 0.0) {
         return 0.0;
     }
@@ -381,15 +390,18 @@ fn adjacent_slack(da: [f64; 2], db: [f64; 2], eps: f64) -> f64 {
 }
 
 /// Distance between two segments that do not meet: the least distance from
-/// an end of one to the other.
+/// an end of one to the other. (Not `geom::distance::segment_segment_distance2`:
+/// a slack must never exceed the distance, and this end-point form's rounding
+/// is a few ulps of the extent, which the slack's margin covers; the general
+/// solve's rounding near parallel segments is not bounded there.)
 fn seg_distance(a: &Seg, b: &Seg) -> f64 {
     let to = |p: [f64; 2], s: &Seg| {
         let [q, r] = s.p;
         let d = [r[0] - q[0], r[1] - q[1]];
         let w = [p[0] - q[0], p[1] - q[1]];
-        let d2 = d[0] * d[0] + d[1] * d[1];
+        let d2 = len2(d);
         let t = if d2 > 0.0 {
-            ((w[0] * d[0] + w[1] * d[1]) / d2).clamp(0.0, 1.0)
+            (dot(w, d) / d2).clamp(0.0, 1.0)
         } else {
             0.0
         };
@@ -444,8 +456,6 @@ fn bernstein(
 /// orientation value's Bernstein coefficients (so its value at every time)
 /// beyond the margin `eps`.
 fn edges_stay_clear(a: [&Seg; 2], b: [&Seg; 2], eps: f64) -> bool {
-    let cross = |u: [f64; 2], v: [f64; 2]| u[0] * v[1] - u[1] * v[0];
-    let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
     let sub = |p: [f64; 2], q: [f64; 2]| [p[0] - q[0], p[1] - q[1]];
     // The vector from point i of edge x to point j of edge y, at both ends.
     let vec = |x: [&Seg; 2], i: usize, y: [&Seg; 2], j: usize| {

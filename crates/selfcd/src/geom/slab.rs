@@ -44,20 +44,6 @@ impl Slab {
         hi: f64::INFINITY,
     };
 
-    /// `[lo, hi]` widened by `err`, or [`ALL`](Self::ALL) when not finite.
-    #[inline]
-    fn widened(lo: f64, hi: f64, err: f64) -> Slab {
-        let s = Slab {
-            lo: lo - err,
-            hi: hi + err,
-        };
-        if s.lo.is_finite() && s.hi.is_finite() {
-            s
-        } else {
-            Slab::ALL
-        }
-    }
-
     /// The slab of a triangle's corners along `v` (|v| <= 1), up to the
     /// rounding [`carry_error`] bounds.
     #[inline]
@@ -75,17 +61,15 @@ impl Slab {
     #[inline]
     pub fn carry(&self, u: DVec3, b: &Aabb, v: DVec3) -> Slab {
         let s = v.dot(u);
-        let w = v - s * u;
         let (a, z) = (s * self.lo, s * self.hi);
-        let mid = 0.5 * w.dot(b.min + b.max);
-        let half = 0.5 * w.abs().dot(b.max - b.min);
+        let rest = Slab::of_box(v - s * u, b);
         Slab {
-            lo: a.min(z) + mid - half,
-            hi: a.max(z) + mid + half,
+            lo: a.min(z) + rest.lo,
+            hi: a.max(z) + rest.hi,
         }
     }
 
-    /// The range of `v . x` over box `b`, up to rounding.
+    /// The range of `v . x` over box `b` (any `v`), up to rounding.
     #[inline]
     pub fn of_box(v: DVec3, b: &Aabb) -> Slab {
         let mid = 0.5 * v.dot(b.min + b.max);
@@ -108,7 +92,15 @@ impl Slab {
     /// Widened by `err` on both sides; [`ALL`](Self::ALL) when not finite.
     #[inline]
     pub fn widen(&self, err: f64) -> Slab {
-        Slab::widened(self.lo, self.hi, err)
+        let s = Slab {
+            lo: self.lo - err,
+            hi: self.hi + err,
+        };
+        if s.lo.is_finite() && s.hi.is_finite() {
+            s
+        } else {
+            Slab::ALL
+        }
     }
 
     /// The smallest slab holding both (on the same axis).
