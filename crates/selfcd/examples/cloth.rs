@@ -71,6 +71,7 @@ fn run() -> Result<(), String> {
     let mut intersections = 0;
     let (mut builds, mut reuses, mut node_pairs, mut leaf_tests) = (0u64, 0u64, 0u64, 0u64);
     let (mut repeats, mut proved) = (0u64, 0u64);
+    let (mut fit_time, mut query_time, mut candidates) = (0.0, 0.0, 0u64);
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
         step += st.step_time;
@@ -91,6 +92,9 @@ fn run() -> Result<(), String> {
         proved += st.proved_clear as u64;
         node_pairs += st.detection.node_pairs;
         leaf_tests += st.detection.proximity_tests;
+        fit_time += st.detection.refit_time;
+        query_time += st.detection.traverse_time;
+        candidates += st.detection.candidates;
         worst = worst.max(st.step_time);
         if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
             let e = sim.energy();
@@ -133,6 +137,12 @@ fn run() -> Result<(), String> {
         "candidate sets built {builds}, queries answered from a cached set {reuses}, continuous repeats re-tested around changed vertices {repeats}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
         node_pairs as f64 / s,
         leaf_tests as f64 / s
+    );
+    println!(
+        "self queries per step: fitting (hierarchy, displacement boxes) {:.3} ms, traversals and tests {:.3} ms, candidates tested {:.0}",
+        ms(fit_time),
+        ms(query_time),
+        candidates as f64 / s
     );
     Ok(())
 }
