@@ -27,12 +27,20 @@ def test_a_fold_through_itself_is_caught_before_it_intersects():
     assert hits["edge_edge"].max(initial=0) < len(edges)
 
 
-def test_a_still_mesh_has_no_impacts_and_separation_counts():
+def test_a_still_mesh_has_no_impacts_and_thickness_counts():
     mesh, F, x0, _ = _fold_step()
     hits = selfcd.continuous_impacts(mesh, x0, x0)
     assert all(len(hits[k]) == 0 for k in hits)
-    near = selfcd.continuous_impacts(mesh, x0, x0, separation=0.2)
+    near = selfcd.continuous_impacts(mesh, x0, x0, thickness=0.2)
     assert len(near["vertex_triangle"]) > 0 and np.all(near["vertex_triangle_toi"] == 0.0)
+
+
+def test_the_old_name_separation_still_works_and_warns():
+    mesh, F, x0, _ = _fold_step()
+    with pytest.warns(DeprecationWarning, match="thickness"):
+        old = selfcd.continuous_impacts(mesh, x0, x0, separation=0.2)
+    new = selfcd.continuous_impacts(mesh, x0, x0, thickness=0.2)
+    assert all(np.array_equal(old[k], new[k]) for k in new)
 
 
 def test_bad_inputs_raise():
@@ -40,7 +48,7 @@ def test_bad_inputs_raise():
     with pytest.raises(ValueError):
         selfcd.continuous_impacts(mesh, x0[:5], x1)
     with pytest.raises(ValueError):
-        selfcd.continuous_impacts(mesh, x0, x1, separation=-1.0)
+        selfcd.continuous_impacts(mesh, x0, x1, thickness=-1.0)
     bad = x1.copy()
     bad[3, 1] = np.nan
     with pytest.raises(ValueError):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -338,29 +339,40 @@ def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
 
 
 def continuous_impacts(
-    mesh: Mesh, x0: npt.ArrayLike, x1: npt.ArrayLike, separation: float = 0.0
+    mesh: Mesh,
+    x0: npt.ArrayLike,
+    x1: npt.ArrayLike,
+    thickness: float = 0.0,
+    *,
+    separation: float | None = None,
 ) -> dict[str, np.ndarray]:
-    """Continuous query: element pairs that come within `separation` during a linear step.
+    """Continuous query: element pairs that come within `thickness` during a linear step.
 
     Every vertex moves on a straight line from `x0` to `x1`. No false negatives:
     each vertex-triangle or edge-edge pair (not sharing a vertex) that comes
-    within `separation` is reported, with a time of impact in [0, 1] no later
+    within `thickness` is reported, with a time of impact in [0, 1] no later
     than when it does.
 
     Args:
         mesh: the mesh.
         x0, x1: (n, 3) float positions at the start and the end of the step.
-        separation: distance that counts as contact (>= 0).
+        thickness: distance that counts as contact (>= 0), the name every
+            query uses for it.
+        separation: the old name of `thickness` (deprecated; warns).
 
     Returns:
         "vertex_triangle" (k, 2) int64 (vertex, face) and "vertex_triangle_toi"
         (k,) float64; "edge_edge" (m, 2) int64 edge ids (rows of `mesh.edges`)
         and "edge_edge_toi" (m,) float64.
     """
+    if separation is not None:
+        warnings.warn("continuous_impacts(separation=...) is deprecated: the argument is "
+                      "called thickness, as in every other query", DeprecationWarning, stacklevel=2)
+        thickness = separation
     n = mesh.n_vertices
     return _core.continuous_impacts(
         mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n),
-        _arrays.number(separation, "separation")
+        _arrays.number(thickness, "thickness")
     )
 
 

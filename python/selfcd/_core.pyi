@@ -97,8 +97,8 @@ def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
 def first_intersection(mesh: Mesh, positions: np.ndarray) -> tuple[int, int] | None:
     """Some intersecting non-adjacent face pair (i, j), i < j, or None; stops at the first found."""
 
-def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, separation: float = 0.0) -> dict[str, np.ndarray]:
-    """Element pairs coming within `separation` during the linear step x0 -> x1, with times of impact."""
+def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, thickness: float = 0.0) -> dict[str, np.ndarray]:
+    """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
 
 def compare_methods(mesh: Mesh, frames: np.ndarray, methods: list[str] | None = None, thickness: float = 0.0,
                     progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:

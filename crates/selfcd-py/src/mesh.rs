@@ -126,23 +126,23 @@ pub fn first_intersection(
 }
 
 /// Continuous query: every vertex-triangle and edge-edge pair that comes within
-/// `separation` while the mesh moves linearly from `x0` to `x1`, as a dict of
+/// `thickness` while the mesh moves linearly from `x0` to `x1`, as a dict of
 /// (k,2) int64 pairs and (k,) float64 conservative times of impact in [0, 1].
 #[pyfunction]
-#[pyo3(signature = (mesh, x0, x1, separation=0.0))]
+#[pyo3(signature = (mesh, x0, x1, thickness=0.0))]
 pub fn continuous_impacts<'py>(
     py: Python<'py>,
     mesh: &PyMesh,
     x0: PyReadonlyArray2<'_, f64>,
     x1: PyReadonlyArray2<'_, f64>,
-    separation: f64,
+    thickness: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (a, b) = (points(&x0, "x0")?, points(&x1, "x1")?);
     let m = mesh.inner.clone();
     let found = py.detach(|| {
         guard("continuous_impacts", || {
             let mut det = selfcd::detect::hierarchy::BvhDetector::new(m, selfcd::Method::Bvh, 0.0);
-            det.continuous(&a, &b, separation)
+            det.continuous(&a, &b, thickness)
         })
     })?;
     impacts_dict(py, &found)
