@@ -44,8 +44,8 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
-    collect_proximity, for_each_owned_pair, ElementPair, Intersect, Proximity, ProximityContacts,
-    DEFAULT_MAX_CONTACTS,
+    collect_proximity, for_each_owned_pair, ElementPair, Intersect, Near, Proximity,
+    ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
@@ -72,17 +72,21 @@ struct Fit {
     at: Vec<DVec3>,
 }
 
-/// Element pairs closer than `reach + skin` at `reference`, sorted by their
-/// distance there (then by pair).
+/// Element pairs closer than `reach + skin` at `reference`, in the order of
+/// the queries' answers: vertex-triangle pairs first, each kind by its ids
+/// (so what a query takes from the set comes out sorted, and only the
+/// traversal's share needs sorting and merging in).
 #[derive(Debug, Clone, Default)]
 struct Candidates {
     reference: Vec<DVec3>,
     reach: f64,
     skin: f64,
     pairs: Vec<ElementPair>,
+    /// Number of vertex-triangle pairs (the first ones).
+    vertex_triangles: usize,
     /// Visiting triangles of each pair ([`ElementPair::visiting_triangles`]).
     tris: Vec<[u32; 2]>,
-    /// Distance of each pair at `reference`, increasing.
+    /// Distance of each pair at `reference`.
     distance: Vec<f64>,
     /// Largest coordinate magnitude at `reference` (for the rounding slack).
     magnitude: f64,
@@ -128,19 +132,22 @@ impl Candidates {
 
     /// The candidates of spread below `allowance` that may be within `reach`
     /// (distance at the reference at most [`limit`](Self::limit)), as a test
-    /// of candidate k, and the length of the distance-sorted prefix it needs
-    /// to run on (no pair spreads more than the whole mesh).
+    /// of candidate k, and how many are near enough to be tested at all
+    /// (no pair spreads more than the whole mesh).
     fn covered<'a>(
         &'a self,
         motion: &'a Motion,
         reach: f64,
         allowance: f64,
-    ) -> (usize, impl Fn(usize) -> Option<Visited> + Sync + 'a) {
+    ) -> (u64, impl Fn(usize) -> Option<Visited> + Sync + 'a) {
         let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
-        let prefix = self.distance.partition_point(|&d| d <= widest);
+        let tested = self.distance.iter().filter(|&&d| d <= widest).count() as u64;
         // Node boxes are fitted only when the whole mesh spreads more.
         let whole = motion.whole_spread();
         let test = move |k: usize| {
+            if !(self.distance[k] <= widest) {
+                return None; // (implied by the test below; cheaper)
+            }
             let tris = self.tris[k];
             let s = if whole < allowance {
                 whole
@@ -150,7 +157,15 @@ impl Candidates {
             (s < allowance && self.distance[k] <= self.limit(motion, reach, s))
                 .then_some((self.pairs[k], tris))
         };
-        (prefix, test)
+        (tested, test)
+    }
+
+    /// The places of each kind of pair: vertex-triangle, then edge-edge.
+    fn kinds(&self) -> [std::ops::Range<usize>; 2] {
+        [
+            0..self.vertex_triangles,
+            self.vertex_triangles..self.pairs.len(),
+        ]
     }
 }
 
@@ -322,12 +337,15 @@ impl LeafVisitor for Gather<'_> {
     }
 }
 
-/// Maps `f` over `0..n` in order, in parallel when there are many.
-fn filter_map_ordered<U: Send>(n: usize, f: impl Fn(usize) -> Option<U> + Sync + Send) -> Vec<U> {
-    if n >= PAR_MIN {
-        (0..n).into_par_iter().filter_map(f).collect()
+/// Maps `f` over `range` in order, in parallel when it is long.
+fn filter_map_ordered<U: Send>(
+    range: std::ops::Range<usize>,
+    f: impl Fn(usize) -> Option<U> + Sync + Send,
+) -> Vec<U> {
+    if range.len() >= PAR_MIN {
+        range.into_par_iter().filter_map(f).collect()
     } else {
-        (0..n).filter_map(f).collect()
+        range.filter_map(f).collect()
     }
 }
 
@@ -518,20 +536,23 @@ impl SelfQueries {
                 thickness: gap,
             });
         }
-        // By distance, then pair: integer keys (a distance is >= 0, so its
-        // bits order like it; the pair packs as kind, first id, second id).
-        pairs.par_sort_unstable_by_key(|&(d, p)| {
+        // In the answers' order: kind, first id, second id (unique keys,
+        // packed into one integer: one comparison each).
+        pairs.par_sort_unstable_by_key(|&(_, p)| {
             let (kind, a, b) = match p {
-                ElementPair::VertexTriangle(a, b) => (0u8, a, b),
-                ElementPair::EdgeEdge(a, b) => (1u8, a, b),
+                ElementPair::VertexTriangle(a, b) => (0u128, a, b),
+                ElementPair::EdgeEdge(a, b) => (1u128, a, b),
             };
-            (d.to_bits(), kind, (a as u64) << 32 | b as u64)
+            kind << 64 | (a as u128) << 32 | b as u128
         });
+        let vertex_triangles =
+            pairs.partition_point(|(_, p)| matches!(p, ElementPair::VertexTriangle(..)));
         let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,
             skin: self.skin,
+            vertex_triangles,
             distance: pairs.iter().map(|p| p.0).collect(),
             tris: pairs.iter().map(|p| p.1.visiting_triangles(mesh)).collect(),
             pairs: pairs.into_iter().map(|p| p.1).collect(),
@@ -642,31 +663,43 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let mut found = self.uncovered(thickness, allowance, test, s);
+        let fresh = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
+        let (tested, covered) = c.covered(&self.motion, thickness, allowance);
         // The hierarchy's leaf boxes when it is fitted to `x`: the same boxes.
         let leaves = (!self.all_covered(allowance)).then_some(&self.bvh.boxes);
         let boxes = |t: u32| match leaves {
             Some(b) => b[t as usize],
             None => Aabb::from_points(&mesh.corners(x, t as usize)),
         };
-        found.extend(filter_map_ordered(prefix, |k| {
+        let test_covered = |k: usize| {
             let (p, [a, b]) = covered(k)?;
             // The fresh query's box test, so that the answers are the same to the bit.
             if a == b || !boxes(a).within(&boxes(b), thickness) {
                 return None;
             }
             test(p)
-        }));
-        s.candidates += prefix as u64;
-        if found.len() > self.max_contacts {
+        };
+        // Each kind's candidates come out in the answer's order.
+        let [vt, ee] = c.kinds();
+        let from_set = ProximityContacts {
+            vertex_triangle: filter_map_ordered(vt, |k| match test_covered(k)? {
+                Near::Vt(x) => Some(x),
+                Near::Ee(_) => None,
+            }),
+            edge_edge: filter_map_ordered(ee, |k| match test_covered(k)? {
+                Near::Ee(x) => Some(x),
+                Near::Vt(_) => None,
+            }),
+        };
+        s.candidates += tested;
+        if fresh.len() + from_set.len() > self.max_contacts {
             return Err(Error::TooManyContacts {
                 limit: self.max_contacts,
                 thickness,
             });
         }
-        let out = collect_proximity(found);
+        let out = collect_proximity(fresh).merge(from_set);
         s.proximity_contacts = (out.vertex_triangle.len() + out.edge_edge.len()) as u64;
         s.traverse_time += t0.elapsed().as_secs_f64();
         Ok(out)
@@ -723,14 +756,14 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (prefix, covered) = c.covered(&self.motion, thickness, allowance);
+        let (tested, covered) = c.covered(&self.motion, thickness, allowance);
         // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
         let leaves = (!self.all_covered(allowance)).then_some(self.bvh.boxes.as_slice());
-        found.extend(filter_map_ordered(prefix, |k| {
+        found.extend(filter_map_ordered(0..c.pairs.len(), |k| {
             let (pair, tris) = covered(k)?;
             candidate_toi(&mesh, x0, x1, pair, tris, leaves, thickness)
         }));
-        s.candidates += prefix as u64;
+        s.candidates += tested;
         s.traverse_time += t1.elapsed().as_secs_f64();
         Ok(Impacts::from_items(found))
     }

@@ -13,6 +13,7 @@ use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
 use crate::stats::Counters;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Exact intersection test of two triangles of one mesh.
@@ -75,6 +76,61 @@ pub struct ProximityContacts {
     pub vertex_triangle: Vec<VertexTriangle>,
     /// Edge-edge pairs, sorted by edge ids.
     pub edge_edge: Vec<EdgeEdge>,
+}
+
+/// The order of vertex-triangle contacts.
+fn vt_key(x: &VertexTriangle) -> (u32, u32) {
+    (x.vertex, x.triangle)
+}
+
+/// The order of edge-edge contacts.
+fn ee_key(x: &EdgeEdge) -> (u32, u32) {
+    (x.edges[0], x.edges[1])
+}
+
+impl ProximityContacts {
+    /// Number of contacts of both kinds.
+    pub fn len(&self) -> usize {
+        self.vertex_triangle.len() + self.edge_edge.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The contacts of `self` and `other`, two sorted sets of different
+    /// element pairs, as one sorted set (a linear merge per kind).
+    pub fn merge(self, other: ProximityContacts) -> ProximityContacts {
+        ProximityContacts {
+            vertex_triangle: merge_sorted(self.vertex_triangle, other.vertex_triangle, vt_key),
+            edge_edge: merge_sorted(self.edge_edge, other.edge_edge, ee_key),
+        }
+    }
+}
+
+/// Two lists sorted by `key` merged into one.
+fn merge_sorted<T: Copy>(a: Vec<T>, b: Vec<T>, key: impl Fn(&T) -> (u32, u32)) -> Vec<T> {
+    if a.is_empty() {
+        return b;
+    }
+    if b.is_empty() {
+        return a;
+    }
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if key(&a[i]) < key(&b[j]) {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
 }
 
 /// One proximity contact found on a triangle pair (deduplicated afterwards).
@@ -302,17 +358,19 @@ impl ElementPair {
 /// Sorts raw proximity contacts (each element pair is reported once, by its
 /// owners, so the keys are unique and the order does not depend on the threads).
 pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
-    let (mut vt, mut ee) = (Vec::new(), Vec::new());
+    let n_vt = items.iter().filter(|x| matches!(x, Near::Vt(_))).count();
+    let (mut vt, mut ee) = (
+        Vec::with_capacity(n_vt),
+        Vec::with_capacity(items.len() - n_vt),
+    );
     for it in items {
         match it {
             Near::Vt(x) => vt.push(x),
             Near::Ee(x) => ee.push(x),
         }
     }
-    let (vertex_triangle, edge_edge) = rayon::join(
-        || sorted_by_key(vt, |x: &VertexTriangle| (x.vertex, x.triangle)),
-        || sorted_by_key(ee, |x: &EdgeEdge| (x.edges[0], x.edges[1])),
-    );
+    let (vertex_triangle, edge_edge) =
+        rayon::join(|| sorted_by_key(vt, vt_key), || sorted_by_key(ee, ee_key));
     ProximityContacts {
         vertex_triangle,
         edge_edge,
@@ -321,9 +379,13 @@ pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
 
 /// `items` in increasing order of their unique `key` (first, second): a
 /// counting sort on `first` (a vertex or edge id, so the buckets number at
-/// most the mesh's elements), then each bucket, a few items, by `second`.
+/// most the mesh's elements) of the items' places, each bucket, a few items,
+/// by `second`, then the items gathered in that order (each copied once).
 /// O(items + largest first id), against a comparison sort's log factor.
-fn sorted_by_key<T: Copy>(items: Vec<T>, key: impl Fn(&T) -> (u32, u32)) -> Vec<T> {
+fn sorted_by_key<T: Copy + Send + Sync>(
+    items: Vec<T>,
+    key: impl Fn(&T) -> (u32, u32) + Sync,
+) -> Vec<T> {
     let Some(max) = items.iter().map(|x| key(x).0).max() else {
         return items;
     };
@@ -335,14 +397,90 @@ fn sorted_by_key<T: Copy>(items: Vec<T>, key: impl Fn(&T) -> (u32, u32)) -> Vec<
         start[i] += start[i - 1];
     }
     let mut fill = start.clone();
-    let mut out = items.clone();
-    for x in items {
-        let slot = &mut fill[key(&x).0 as usize];
-        out[*slot as usize] = x;
+    let mut order = vec![0u32; items.len()];
+    for (i, x) in items.iter().enumerate() {
+        let slot = &mut fill[key(x).0 as usize];
+        order[*slot as usize] = i as u32;
         *slot += 1;
     }
     for w in start.windows(2) {
-        out[w[0] as usize..w[1] as usize].sort_unstable_by_key(|x| key(x).1);
+        order[w[0] as usize..w[1] as usize].sort_unstable_by_key(|&i| key(&items[i as usize]).1);
     }
-    out
+    order.par_iter().map(|&i| items[i as usize]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{seq::SliceRandom, Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn vt(vertex: u32, triangle: u32) -> Near {
+        Near::Vt(VertexTriangle {
+            vertex,
+            triangle,
+            distance: 0.5,
+            bary: [1.0, 0.0, 0.0],
+        })
+    }
+
+    fn ee(a: u32, b: u32) -> Near {
+        Near::Ee(EdgeEdge {
+            edges: [a, b],
+            distance: 0.25,
+            params: [0.5, 0.5],
+        })
+    }
+
+    /// Unique random contacts of both kinds, in random order.
+    fn contacts(n: usize, seed: u64) -> Vec<Near> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut keys: Vec<(bool, u32, u32)> = (0..n)
+            .map(|_| (rng.gen(), rng.gen_range(0..50), rng.gen_range(0..50)))
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        keys.shuffle(&mut rng);
+        keys.into_iter()
+            .map(|(kind, a, b)| if kind { vt(a, b) } else { ee(a, b) })
+            .collect()
+    }
+
+    /// The contacts' keys, vertex-triangle ones first (tagged 0) then edge-edge.
+    fn keys(c: &ProximityContacts) -> Vec<(u8, u32, u32)> {
+        let vt = c.vertex_triangle.iter().map(vt_key).map(|(a, b)| (0, a, b));
+        vt.chain(c.edge_edge.iter().map(ee_key).map(|(a, b)| (1, a, b)))
+            .collect()
+    }
+
+    #[test]
+    fn collected_contacts_are_sorted_by_kind_and_ids() {
+        let items = contacts(2000, 1);
+        let n = items.len();
+        let c = collect_proximity(items);
+        assert_eq!(c.len(), n);
+        assert!(keys(&c).windows(2).all(|w| w[0] < w[1]));
+        assert!(collect_proximity(Vec::new()).is_empty());
+    }
+
+    #[test]
+    fn merging_two_sorted_sets_sorts_their_union() {
+        for seed in 0..4 {
+            let mut items = contacts(1500, 10 + seed);
+            let all = collect_proximity(items.clone());
+            let cut = items.len() / (2 + seed as usize);
+            let rest = items.split_off(cut);
+            let merged = collect_proximity(items).merge(collect_proximity(rest));
+            assert_eq!(keys(&merged), keys(&all), "seed {seed}");
+        }
+        let one = collect_proximity(contacts(100, 7));
+        assert_eq!(
+            keys(&one.clone().merge(ProximityContacts::default())),
+            keys(&one)
+        );
+        assert_eq!(
+            keys(&ProximityContacts::default().merge(one.clone())),
+            keys(&one)
+        );
+    }
 }
