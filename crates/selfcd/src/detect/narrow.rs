@@ -379,9 +379,10 @@ pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
 
 /// `items` in increasing order of their unique `key` (first, second): a
 /// counting sort on `first` (a vertex or edge id, so the buckets number at
-/// most the mesh's elements) of the items' places, each bucket, a few items,
-/// by `second`, then the items gathered in that order (each copied once).
-/// O(items + largest first id), against a comparison sort's log factor.
+/// most the mesh's elements) of `second` and the item's place packed in one
+/// integer, each bucket (a few items) sorted, then the items gathered in that
+/// order (each copied once). O(items + largest first id), against a
+/// comparison sort's log factor.
 fn sorted_by_key<T: Copy + Send + Sync>(
     items: Vec<T>,
     key: impl Fn(&T) -> (u32, u32) + Sync,
@@ -397,16 +398,20 @@ fn sorted_by_key<T: Copy + Send + Sync>(
         start[i] += start[i - 1];
     }
     let mut fill = start.clone();
-    let mut order = vec![0u32; items.len()];
+    let mut order = vec![0u64; items.len()];
     for (i, x) in items.iter().enumerate() {
-        let slot = &mut fill[key(x).0 as usize];
-        order[*slot as usize] = i as u32;
+        let (first, second) = key(x);
+        let slot = &mut fill[first as usize];
+        order[*slot as usize] = (second as u64) << 32 | i as u64;
         *slot += 1;
     }
     for w in start.windows(2) {
-        order[w[0] as usize..w[1] as usize].sort_unstable_by_key(|&i| key(&items[i as usize]).1);
+        order[w[0] as usize..w[1] as usize].sort_unstable();
     }
-    order.par_iter().map(|&i| items[i as usize]).collect()
+    order
+        .par_iter()
+        .map(|&o| items[o as u32 as usize])
+        .collect()
 }
 
 #[cfg(test)]
