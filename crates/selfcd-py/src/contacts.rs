@@ -10,7 +10,11 @@ use selfcd::detect::continuous::{Impact, Impacts};
 use selfcd::detect::narrow::ElementPair;
 use selfcd::detect::ProximityContacts;
 
-/// `f` of every item, as a (len, K) array. The rows are filled in parallel
+/// Below this many items a result array is filled on the calling thread
+/// (releasing the GIL and waking the pool cost more than the copy).
+const PAR_ITEMS: usize = 16_384;
+
+/// `f` of every item, as a (len, K) array. Long ones are filled in parallel
 /// without the GIL, into memory the array then owns (no copy): a proximity
 /// query can return millions of contacts.
 fn par_rows<'py, S: Sync, T: Element + Copy + Default + Send + Sync, const K: usize>(
@@ -19,12 +23,16 @@ fn par_rows<'py, S: Sync, T: Element + Copy + Default + Send + Sync, const K: us
     f: impl Fn(&S) -> [T; K] + Sync + Send,
 ) -> PyResult<Bound<'py, PyAny>> {
     const { assert!(K > 0, "rows have entries") };
-    let flat = py.detach(|| {
-        let mut flat = vec![T::default(); items.len() * K];
-        let rows = flat.par_chunks_mut(K).zip(items.par_iter());
-        rows.for_each(|(row, x)| row.copy_from_slice(&f(x)));
-        flat
-    });
+    let flat = if items.len() < PAR_ITEMS {
+        items.iter().flat_map(&f).collect()
+    } else {
+        py.detach(|| {
+            let mut flat = vec![T::default(); items.len() * K];
+            let rows = flat.par_chunks_mut(K).zip(items.par_iter());
+            rows.for_each(|(row, x)| row.copy_from_slice(&f(x)));
+            flat
+        })
+    };
     Ok(PyArray1::from_vec(py, flat)
         .reshape([items.len(), K])?
         .into_any())
@@ -36,7 +44,12 @@ fn par_column<'py, S: Sync, T: Element + Copy + Send + Sync>(
     items: &[S],
     f: impl Fn(&S) -> T + Sync + Send,
 ) -> Bound<'py, PyArray1<T>> {
-    PyArray1::from_vec(py, py.detach(|| items.par_iter().map(f).collect()))
+    let column = if items.len() < PAR_ITEMS {
+        items.iter().map(f).collect()
+    } else {
+        py.detach(|| items.par_iter().map(f).collect())
+    };
+    PyArray1::from_vec(py, column)
 }
 
 /// Proximity contacts as arrays: vertex-triangle pairs and edge-edge pairs
