@@ -42,7 +42,9 @@ pub struct FrameStats {
     pub candidate_builds: u64,
     /// Coherent queries: queries answered from a cached candidate set (reused work).
     pub candidate_reuses: u64,
-    /// Coherent queries: cached candidate element pairs re-tested.
+    /// Coherent queries: cached candidate element pairs examined (those near
+    /// enough to come within the query's distance, and every pair within the
+    /// set's own reach).
     pub candidates: u64,
     /// Coherent queries: continuous queries that repeated the last one with a
     /// few end positions changed, answered by re-testing only the triangles

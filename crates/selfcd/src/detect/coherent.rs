@@ -73,17 +73,22 @@ struct Fit {
 }
 
 /// Element pairs closer than `reach + skin` at `reference`, in the order of
-/// the queries' answers: vertex-triangle pairs first, each kind by its ids
-/// (so what a query takes from the set comes out sorted, and only the
-/// traversal's share needs sorting and merging in).
+/// two tiers. The pairs within `reach` come first, in the order of the
+/// queries' answers (vertex-triangle pairs, then edge-edge, each kind by its
+/// ids), so what a query takes from them comes out sorted; the pairs in the
+/// skin follow by increasing distance, so a query scans only the prefix near
+/// enough for it (on a flat sheet the skin holds most pairs and a query takes
+/// none). Only the traversal's and the skin's shares need sorting and merging in.
 #[derive(Debug, Clone, Default)]
 struct Candidates {
     reference: Vec<DVec3>,
     reach: f64,
     skin: f64,
     pairs: Vec<ElementPair>,
-    /// Number of vertex-triangle pairs (the first ones).
+    /// Number of vertex-triangle pairs within `reach` (the first ones).
     vertex_triangles: usize,
+    /// Number of pairs within `reach` (the first tier).
+    within: usize,
     /// Visiting triangles of each pair ([`ElementPair::visiting_triangles`]).
     tris: Vec<[u32; 2]>,
     /// Distance of each pair at `reference`.
@@ -132,16 +137,25 @@ impl Candidates {
 
     /// The candidates of spread below `allowance` that may be within `reach`
     /// (distance at the reference at most [`limit`](Self::limit)), as a test
-    /// of candidate k, and how many are near enough to be tested at all
-    /// (no pair spreads more than the whole mesh).
+    /// of candidate k, and the places it needs to run on: the first tier's
+    /// vertex-triangle and edge-edge pairs, and the prefix of the skin's that
+    /// is near enough (no pair spreads more than the whole mesh).
     fn covered<'a>(
         &'a self,
         motion: &'a Motion,
         reach: f64,
         allowance: f64,
-    ) -> (u64, impl Fn(usize) -> Option<Visited> + Sync + 'a) {
+    ) -> (
+        [std::ops::Range<usize>; 3],
+        impl Fn(usize) -> Option<Visited> + Sync + 'a,
+    ) {
         let widest = self.limit(motion, reach, motion.whole_spread().min(allowance));
-        let tested = self.distance.iter().filter(|&&d| d <= widest).count() as u64;
+        let far = self.distance[self.within..].partition_point(|&d| d <= widest);
+        let places = [
+            0..self.vertex_triangles,
+            self.vertex_triangles..self.within,
+            self.within..self.within + far,
+        ];
         // Node boxes are fitted only when the whole mesh spreads more.
         let whole = motion.whole_spread();
         let test = move |k: usize| {
@@ -157,15 +171,7 @@ impl Candidates {
             (s < allowance && self.distance[k] <= self.limit(motion, reach, s))
                 .then_some((self.pairs[k], tris))
         };
-        (tested, test)
-    }
-
-    /// The places of each kind of pair: vertex-triangle, then edge-edge.
-    fn kinds(&self) -> [std::ops::Range<usize>; 2] {
-        [
-            0..self.vertex_triangles,
-            self.vertex_triangles..self.pairs.len(),
-        ]
+        (places, test)
     }
 }
 
@@ -536,23 +542,29 @@ impl SelfQueries {
                 thickness: gap,
             });
         }
-        // In the answers' order: kind, first id, second id (unique keys,
-        // packed into one integer: one comparison each).
-        pairs.par_sort_unstable_by_key(|&(_, p)| {
+        // The pairs within `reach` in the answers' order (kind, first id,
+        // second id: unique keys packed into one integer), then the skin's by
+        // distance (a distance is >= 0, so its bits order like it; then the
+        // same key for ties).
+        pairs.par_sort_unstable_by_key(|&(d, p)| {
             let (kind, a, b) = match p {
                 ElementPair::VertexTriangle(a, b) => (0u128, a, b),
                 ElementPair::EdgeEdge(a, b) => (1u128, a, b),
             };
-            kind << 64 | (a as u128) << 32 | b as u128
+            let key = kind << 64 | (a as u128) << 32 | b as u128;
+            let skin = d > reach;
+            (skin, if skin { d.to_bits() } else { 0 }, key)
         });
+        let within = pairs.partition_point(|&(d, _)| d <= reach);
         let vertex_triangles =
-            pairs.partition_point(|(_, p)| matches!(p, ElementPair::VertexTriangle(..)));
+            pairs[..within].partition_point(|(_, p)| matches!(p, ElementPair::VertexTriangle(..)));
         let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,
             skin: self.skin,
             vertex_triangles,
+            within,
             distance: pairs.iter().map(|p| p.0).collect(),
             tris: pairs.iter().map(|p| p.1.visiting_triangles(mesh)).collect(),
             pairs: pairs.into_iter().map(|p| p.1).collect(),
@@ -663,9 +675,10 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let fresh = self.uncovered(thickness, allowance, test, s);
+        let mut fresh = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (tested, covered) = c.covered(&self.motion, thickness, allowance);
+        let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
+        s.candidates += (vt.len() + ee.len() + skin.len()) as u64;
         // The hierarchy's leaf boxes when it is fitted to `x`: the same boxes.
         let leaves = (!self.all_covered(allowance)).then_some(&self.bvh.boxes);
         let boxes = |t: u32| match leaves {
@@ -680,8 +693,9 @@ impl SelfQueries {
             }
             test(p)
         };
-        // Each kind's candidates come out in the answer's order.
-        let [vt, ee] = c.kinds();
+        // The first tier's pairs come out in the answer's order, each kind
+        // apart; the skin's join the traversal's to be sorted.
+        fresh.extend(filter_map_ordered(skin, test_covered));
         let from_set = ProximityContacts {
             vertex_triangle: filter_map_ordered(vt, |k| match test_covered(k)? {
                 Near::Vt(x) => Some(x),
@@ -692,7 +706,6 @@ impl SelfQueries {
                 Near::Vt(_) => None,
             }),
         };
-        s.candidates += tested;
         if fresh.len() + from_set.len() > self.max_contacts {
             return Err(Error::TooManyContacts {
                 limit: self.max_contacts,
@@ -756,14 +769,16 @@ impl SelfQueries {
         };
         let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
-        let (tested, covered) = c.covered(&self.motion, thickness, allowance);
+        let (places, covered) = c.covered(&self.motion, thickness, allowance);
         // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
         let leaves = (!self.all_covered(allowance)).then_some(self.bvh.boxes.as_slice());
-        found.extend(filter_map_ordered(0..c.pairs.len(), |k| {
-            let (pair, tris) = covered(k)?;
-            candidate_toi(&mesh, x0, x1, pair, tris, leaves, thickness)
-        }));
-        s.candidates += tested;
+        for range in places {
+            s.candidates += range.len() as u64;
+            found.extend(filter_map_ordered(range, |k| {
+                let (pair, tris) = covered(k)?;
+                candidate_toi(&mesh, x0, x1, pair, tris, leaves, thickness)
+            }));
+        }
         s.traverse_time += t1.elapsed().as_secs_f64();
         Ok(Impacts::from_items(found))
     }
