@@ -72,8 +72,8 @@ struct Fit {
     at: Vec<DVec3>,
 }
 
-/// Element pairs closer than `reach + skin` at `reference`, in the order of
-/// two tiers. The pairs within `reach` come first, in the order of the
+/// Element pairs closer than `reach + skin` at `reference`, in two tiers.
+/// The pairs within `reach` come first, in the order of the
 /// queries' answers (vertex-triangle pairs, then edge-edge, each kind by its
 /// ids), so what a query takes from them comes out sorted; the pairs in the
 /// skin follow by increasing distance, so a query scans only the prefix near
