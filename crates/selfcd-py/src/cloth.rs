@@ -252,7 +252,7 @@ impl PySimulation {
     fn obstacle_faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let sim = self.lock()?;
         let tris = sim.obstacles().map_or(&[][..], |o| o.mesh().triangles());
-        crate::convert::rows_array(py, tris.iter().map(|t| t.map(i64::from)))
+        crate::convert::rows_array(py, tris, |t| t.map(i64::from))
     }
 
     /// Advances one time step; returns its stats (a dict, `detection` holding the FrameStats).

@@ -1,8 +1,11 @@
 //! numpy arrays <-> engine types, whole arrays at a time.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{
+    Element, PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use rayon::prelude::*;
 use selfcd::DVec3;
 
 /// Checks that a 2-d array has 3 columns; `what` names it in the error.
@@ -85,23 +88,52 @@ pub fn frames(a: &PyReadonlyArray3<'_, f64>) -> PyResult<Vec<Vec<DVec3>>> {
 
 /// Points as a new (n,3) float64 array.
 pub fn points_array<'py>(py: Python<'py>, p: &[DVec3]) -> PyResult<Bound<'py, PyAny>> {
-    let flat: Vec<f64> = p.iter().flat_map(|v| v.to_array()).collect();
+    rows_array(py, p, |v| v.to_array())
+}
+
+/// Below this many items an array is filled on the calling thread
+/// (releasing the GIL and waking the pool cost more than the copy).
+const PAR_ITEMS: usize = 16_384;
+
+/// `row(item)` of every item as a new (len, K) array. Long ones are filled
+/// in parallel without the GIL (a proximity query can return millions of
+/// contacts), into memory the array then owns (no copy).
+pub fn rows_array<'py, S: Sync, T: Element + Copy + Default + Send + Sync, const K: usize>(
+    py: Python<'py>,
+    items: &[S],
+    row: impl Fn(&S) -> [T; K] + Sync + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    const { assert!(K > 0, "rows have entries") };
+    let flat = if items.len() < PAR_ITEMS {
+        items.iter().flat_map(&row).collect()
+    } else {
+        py.detach(|| {
+            let mut flat = vec![T::default(); items.len() * K];
+            let rows = flat.par_chunks_mut(K).zip(items.par_iter());
+            rows.for_each(|(out, x)| out.copy_from_slice(&row(x)));
+            flat
+        })
+    };
     Ok(PyArray1::from_vec(py, flat)
-        .reshape([p.len(), 3])?
+        .reshape([items.len(), K])?
         .into_any())
 }
 
-/// Rows of `K` values as a new (k,K) array.
-pub fn rows_array<'py, T: numpy::Element + Copy, const K: usize>(
+/// `value(item)` of every item as a new 1-d array (see [`rows_array`]).
+pub fn column_array<'py, S: Sync, T: Element + Copy + Send + Sync>(
     py: Python<'py>,
-    rows: impl ExactSizeIterator<Item = [T; K]>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let n = rows.len();
-    let flat: Vec<T> = rows.flat_map(|r| r.into_iter()).collect();
-    Ok(PyArray1::from_vec(py, flat).reshape([n, K])?.into_any())
+    items: &[S],
+    value: impl Fn(&S) -> T + Sync + Send,
+) -> Bound<'py, PyArray1<T>> {
+    let column = if items.len() < PAR_ITEMS {
+        items.iter().map(value).collect()
+    } else {
+        py.detach(|| items.par_iter().map(value).collect())
+    };
+    PyArray1::from_vec(py, column)
 }
 
 /// Sorted triangle pairs as a new (k,2) int64 array.
 pub fn pairs_array<'py>(py: Python<'py>, pairs: &[[u32; 2]]) -> PyResult<Bound<'py, PyAny>> {
-    rows_array(py, pairs.iter().map(|p| [p[0] as i64, p[1] as i64]))
+    rows_array(py, pairs, |p| p.map(i64::from))
 }

@@ -42,10 +42,7 @@ impl PyMesh {
     /// Faces, (m,3) int64 (a copy).
     #[getter]
     fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        rows_array(
-            py,
-            self.inner.triangles().iter().map(|t| t.map(|v| v as i64)),
-        )
+        rows_array(py, self.inner.triangles(), |t| t.map(i64::from))
     }
 
     /// Unique undirected edges, (e,2) int64, smaller vertex first; edge ids index this array.

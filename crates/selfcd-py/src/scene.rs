@@ -31,7 +31,7 @@ pub fn grid<'py>(
     let pts: Vec<_> = v.iter().map(|p| selfcd::DVec3::from_array(*p)).collect();
     Ok((
         points_array(py, &pts)?,
-        rows_array(py, f.iter().map(|t| t.map(|i| i as i64)))?,
+        rows_array(py, &f, |t| t.map(|i| i as i64))?,
     ))
 }
 

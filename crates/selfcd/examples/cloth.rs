@@ -139,7 +139,7 @@ fn run() -> Result<(), String> {
         leaf_tests as f64 / s
     );
     println!(
-        "self queries per step: fitting (hierarchy, displacement boxes) {:.3} ms, traversals and tests {:.3} ms, candidates tested {:.0}",
+        "self queries per step: fitting (hierarchy, displacement boxes) {:.3} ms, traversals and tests {:.3} ms, candidates examined {:.0}",
         ms(fit_time),
         ms(query_time),
         candidates as f64 / s

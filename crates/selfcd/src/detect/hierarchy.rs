@@ -174,28 +174,30 @@ impl BvhDetector {
         self.mesh.check_positions(positions)?;
         let t0 = Instant::now();
         self.frames += 1;
-        if self.method != Method::BvhConesContour || self.frames < 2 {
-            self.refit(positions);
-            self.fit_slabs(positions);
-            let refit_time = t0.elapsed().as_secs_f64();
-            let mut det = self.traverse(positions)?;
-            det.stats.refit_time = refit_time;
-            return Ok(det);
-        }
-        // The displacement boxes are fitted with the refit, and timed with it.
+        // From the second frame on, the contour cull keeps its certificates;
+        // their displacement boxes are fitted with the refit, and timed with it.
+        let keeps = self.method == Method::BvhConesContour && self.frames >= 2;
         let cap = KEPT_CAP * self.mesh.mean_edge_length();
-        let mut kept = self
-            .kept
-            .take()
-            .unwrap_or_else(|| KeptCertificates::new(cap));
-        let reuse = kept.refit(&mut self.bvh, &self.mesh, positions);
+        let mut kept = keeps.then(|| {
+            self.kept
+                .take()
+                .unwrap_or_else(|| KeptCertificates::new(cap))
+        });
+        let reuse = match kept.as_mut() {
+            Some(k) => k.refit(&mut self.bvh, &self.mesh, positions),
+            None => {
+                self.refit(positions);
+                None
+            }
+        };
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let det = self.traverse_with(positions, reuse.as_ref());
-        if let Some(fresh) = reuse.map(Reuse::into_fresh) {
-            kept.keep(fresh);
+        let fresh = reuse.map(Reuse::into_fresh);
+        if let Some(mut k) = kept {
+            k.keep(fresh.unwrap_or_default());
+            self.kept = Some(k);
         }
-        self.kept = Some(kept);
         let mut det = det?;
         det.stats.refit_time = refit_time;
         Ok(det)
