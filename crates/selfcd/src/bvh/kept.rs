@@ -25,6 +25,14 @@
 //! certificate is exactly as sound as a fresh one; reusing it costs O(1)
 //! instead of a walk along the contour.
 //!
+//! **One bound for all.** Every node's displacement box lies in the whole
+//! mesh's. When that one box is within the slack of every kept certificate
+//! (there are some: a flat sheet's single one, a garment's few), they all
+//! hold, the frame takes it for every node, and the nodes' boxes are not
+//! fitted: one pass over the vertices instead of a second box per triangle
+//! and per node. Certificates made in such a frame store their slack less the
+//! whole mesh's spread, which is larger than their own, so they hold for less.
+//!
 //! The reference is reset (and every certificate dropped) when the whole
 //! mesh's displacement spread exceeds [`RESET`] times the loop test's cap on
 //! its slacks: past it few certificates can still hold. When that happens two frames running (the
@@ -37,6 +45,7 @@ use super::Bvh;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::Mutex;
 
@@ -60,8 +69,11 @@ pub struct KeptCertificates {
     reference: Vec<DVec3>,
     /// Key: `a << 32 | b` for the union of nodes a < b, `n << 32 | n` for node n.
     kept: HashMap<u64, Kept>,
-    /// Displacement box of every node this frame.
+    /// Displacement box of every node this frame, or of the whole mesh only
+    /// (one entry) when that is within every kept slack.
     spread: Vec<Aabb>,
+    /// The smallest slack kept since the reference was reset.
+    least_slack: f64,
     cap: f64,
     /// The last frame reset the reference.
     reset_last: bool,
@@ -89,6 +101,7 @@ impl KeptCertificates {
     pub fn new(cap: f64) -> Self {
         KeptCertificates {
             cap,
+            least_slack: f64::INFINITY,
             ..Default::default()
         }
     }
@@ -105,8 +118,16 @@ impl KeptCertificates {
     ) -> Option<Reuse<'a>> {
         let mut reset = self.reference.len() != positions.len()
             || (self.reset_last && !self.settled(positions));
+        let whole = (!reset).then(|| self.whole_spread(positions));
         if reset {
             bvh.refit(mesh, positions);
+        } else if let Some(b) =
+            whole.filter(|b| !self.kept.is_empty() && half_diagonal(b) <= self.least_slack)
+        {
+            bvh.refit(mesh, positions);
+            self.spread.clear();
+            self.spread.push(b);
+            reset = !(half_diagonal(&b) <= RESET * self.cap);
         } else {
             let (tris, r) = (mesh.triangles(), &self.reference);
             self.spread.resize(bvh.n_nodes(), Aabb::EMPTY);
@@ -148,23 +169,36 @@ impl KeptCertificates {
 
     /// Adds the certificates made in a frame (`Reuse::into_fresh`).
     pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
+        for (_, k) in &fresh {
+            self.least_slack = self.least_slack.min(k.slack);
+        }
         self.kept.extend(fresh);
     }
 
-    /// After a reset, whether the whole mesh now spreads within the cap,
-    /// from one pass over the vertices (the root's displacement box, or a
-    /// larger one where vertices lie on no triangle): while the mesh moves
-    /// too fast, the nodes' displacement boxes are not fitted at all.
+    /// The box of every vertex's displacement from the reference, in one
+    /// pass over the vertices (it holds the root's displacement box, and more
+    /// where vertices lie on no triangle).
+    fn whole_spread(&self, positions: &[DVec3]) -> Aabb {
+        let d = positions
+            .par_iter()
+            .zip(&self.reference)
+            .map(|(x, r)| *x - *r);
+        d.fold(|| Aabb::EMPTY, |b, p| b.union(&Aabb::from_points(&[p])))
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
+    }
+
+    /// After a reset, whether the whole mesh now spreads within the cap:
+    /// while the mesh moves too fast, the nodes' displacement boxes are not
+    /// fitted at all.
     fn settled(&self, positions: &[DVec3]) -> bool {
-        let d = positions.iter().zip(&self.reference).map(|(x, r)| *x - *r);
-        let b = d.fold(Aabb::EMPTY, |b, p| b.union(&Aabb::from_points(&[p])));
-        half_diagonal(&b) <= RESET * self.cap
+        half_diagonal(&self.whole_spread(positions)) <= RESET * self.cap
     }
 
     fn reset(&mut self, positions: &[DVec3]) {
         self.reference.clear();
         self.reference.extend_from_slice(positions);
         self.kept.clear();
+        self.least_slack = f64::INFINITY;
     }
 }
 
@@ -182,11 +216,14 @@ impl Reuse<'_> {
         self.cap
     }
 
-    /// The displacement spread of node `a`, or of the union of `a` and `b`.
+    /// The displacement spread of node `a`, or of the union of `a` and `b`
+    /// (the whole mesh's when only that was fitted).
     #[inline]
     pub fn spread(&self, a: u32, b: u32) -> f64 {
-        let (sa, sb) = (&self.spread[a as usize], &self.spread[b as usize]);
-        half_diagonal(&sa.union(sb))
+        match self.spread {
+            [whole] => half_diagonal(whole),
+            all => half_diagonal(&all[a as usize].union(&all[b as usize])),
+        }
     }
 
     /// The certificate under `key` when it still holds for spread `h`.
