@@ -652,6 +652,26 @@ mod tests {
     }
 
     #[test]
+    fn small_nodes_list_their_leaves() {
+        for seed in 0..4 {
+            let bvh = build(&mesh(seed));
+            let end = bvh.small_end();
+            assert!(end as usize > bvh.n_leaves && (end as usize) < bvh.n_nodes());
+            for n in 0..bvh.n_nodes() as u32 {
+                let mut want = Vec::new();
+                leaves_of(&bvh, n, &mut want);
+                if n < end {
+                    let mut got = [0; Bvh::SMALL];
+                    let k = bvh.small_leaves(n, &mut got);
+                    assert_eq!(got[..k], want[..], "node {n}");
+                } else {
+                    assert!(!bvh.is_leaf(n));
+                }
+            }
+        }
+    }
+
+    #[test]
     fn built_boxes_and_cones_are_a_refit_at_rest() {
         let m = mesh(1);
         let bvh = build(&m);

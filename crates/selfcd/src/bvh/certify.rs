@@ -51,6 +51,11 @@ pub trait Cull: Sync {
     /// May the pair test of disjoint nodes `a` and `b` (boxes overlapping,
     /// not siblings, not both leaves) be skipped?
     fn pair_culled(&self, a: u32, b: u32, s: &mut Self::Scratch, c: &mut Counters) -> bool;
+    /// When true, the traversal tests a small node (at most
+    /// [`SMALL`](super::Bvh::SMALL) triangles), or a pair of them, leaf pair
+    /// by leaf pair, without asking about the nodes in between: for culls
+    /// that rarely cull there (boxes only) or that the leaf visitor repeats.
+    const LEAF_BY_LEAF_WHEN_SMALL: bool = false;
 }
 
 /// No culling: every overlapping box pair is descended (`bvh`, proximity).
@@ -58,6 +63,7 @@ pub struct BoxesOnly;
 
 impl Cull for BoxesOnly {
     type Scratch = ();
+    const LEAF_BY_LEAF_WHEN_SMALL: bool = true;
     #[inline]
     fn self_culled(&self, _: u32, _: &mut (), _: &mut Counters) -> bool {
         false

@@ -38,6 +38,39 @@ pub struct Bvh {
 }
 
 impl Bvh {
+    /// Most triangles under a node of the first two levels (leaves included).
+    pub const SMALL: usize = 4;
+
+    /// Nodes below this id hold at most [`SMALL`](Self::SMALL) triangles: the
+    /// leaves and the first two levels' parents (each pairs two nodes of the
+    /// level below or carries one up).
+    pub fn small_end(&self) -> u32 {
+        self.levels.get(1).map_or(self.n_nodes() as u32, |l| l.end)
+    }
+
+    /// The triangles under small node `n` (id below [`small_end`](Self::small_end)),
+    /// in `out`; returns how many.
+    #[inline]
+    pub fn small_leaves(&self, n: u32, out: &mut [u32; Self::SMALL]) -> usize {
+        if self.is_leaf(n) {
+            out[0] = n;
+            return 1;
+        }
+        let mut k = 0;
+        for c in self.children_of(n) {
+            if self.is_leaf(c) {
+                out[k] = c;
+                k += 1;
+            } else {
+                for g in self.children_of(c) {
+                    out[k] = g;
+                    k += 1;
+                }
+            }
+        }
+        k
+    }
+
     /// Total number of nodes (2 n - 1).
     pub fn n_nodes(&self) -> usize {
         self.boxes.len()

@@ -15,6 +15,11 @@
 //! siblings under a node that was not culled is never offered to
 //! `pair_culled`: their union is the node, already refused.
 //!
+//! Where the cull allows ([`Cull::LEAF_BY_LEAF_WHEN_SMALL`]), the self-test of
+//! a node of at most [`Bvh::SMALL`] triangles, or the pair test of two, tests
+//! their leaf pairs' boxes directly: the same leaf pairs, without the node
+//! pairs in between (most of a proximity query's node pairs lie there).
+//!
 //! Top levels run in parallel with `rayon::join`; each task keeps its own
 //! results, counters and cull buffers, and the join order is fixed, so the
 //! output is the same for any number of threads.
@@ -106,6 +111,11 @@ pub fn traverse<C: Cull, V: LeafVisitor>(
         bvh,
         mesh,
         gap,
+        small_end: if C::LEAF_BY_LEAF_WHEN_SMALL {
+            bvh.small_end()
+        } else {
+            0
+        },
         slab_gap: bvh
             .has_slabs()
             .then(|| bvh.slab_error().map(|e| gap + e))
@@ -124,6 +134,8 @@ struct Ctx<'a, C, V> {
     bvh: &'a Bvh,
     mesh: &'a Mesh,
     gap: f64,
+    /// Nodes below this id are tested leaf pair by leaf pair (0: none).
+    small_end: u32,
     /// The gap slabs must exceed: `gap` plus the carry's rounding, or None
     /// where slabs bound nothing.
     slab_gap: Option<f64>,
@@ -235,6 +247,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             match job {
                 Job::Node(n) => {
                     if !self.bvh.is_leaf(n) && !self.self_culled(n, acc) {
+                        if n < self.small_end {
+                            self.small_self(n, acc);
+                            continue;
+                        }
                         let [l, r] = self.bvh.children_of(n);
                         stack.extend([Job::Pair(l, r, true), Job::Node(r), Job::Node(l)]);
                     }
@@ -272,6 +288,46 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             &mut acc.items,
             &mut acc.counters,
         );
+    }
+
+    /// The leaf pairs of small node `n`, each tested as the descent would.
+    fn small_self(&self, n: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+        let mut leaves = [0; Bvh::SMALL];
+        let k = self.bvh.small_leaves(n, &mut leaves);
+        for (i, &x) in leaves[..k].iter().enumerate() {
+            for &y in &leaves[i + 1..k] {
+                self.leaf_boxes(x, y, acc);
+            }
+        }
+    }
+
+    /// The leaf pairs of small nodes `a` and `b`, each tested as the descent would.
+    fn small_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+        let (mut la, mut lb) = ([0; Bvh::SMALL], [0; Bvh::SMALL]);
+        let (ka, kb) = (
+            self.bvh.small_leaves(a, &mut la),
+            self.bvh.small_leaves(b, &mut lb),
+        );
+        for &x in &la[..ka] {
+            for &y in &lb[..kb] {
+                self.leaf_boxes(x, y, acc);
+            }
+        }
+    }
+
+    /// Leaves `a` and `b` as a pair job of the descent: boxes, slabs, then the test.
+    #[inline]
+    fn leaf_boxes(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+        acc.counters.node_pairs += 1;
+        let boxes = &self.bvh.boxes;
+        if !boxes[a as usize].within(&boxes[b as usize], self.gap) {
+            return;
+        }
+        if self.slabs_apart(a, b) {
+            acc.counters.slab_culls += 1;
+            return;
+        }
+        self.leaf_pair(a, b, acc);
     }
 
     /// Are the nodes apart along `a`'s cone axis ([`crate::geom::Slab`]:
@@ -321,6 +377,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                 .cull
                 .pair_culled(a, b, &mut acc.scratch, &mut acc.counters)
         {
+            return None;
+        }
+        if a < self.small_end && b < self.small_end {
+            self.small_pair(a, b, acc);
             return None;
         }
         let split_b = la || (!lb && bb.surface_area() > ba.surface_area());
