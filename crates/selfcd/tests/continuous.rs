@@ -5,6 +5,7 @@ use glam::DVec3;
 use selfcd::detect::continuous::{element_toi, Impacts};
 use selfcd::detect::hierarchy::BvhDetector;
 use selfcd::detect::narrow::ElementPair;
+use selfcd::geom::distance::HullCull;
 use selfcd::scene::{grid, Deformation};
 use selfcd::{self_intersections, Mesh, Method};
 use std::f64::consts::PI;
@@ -131,7 +132,7 @@ fn sampled_min_distance(
         .map(|k| {
             let t = k as f64 / n as f64;
             let x: Vec<DVec3> = x0.iter().zip(x1).map(|(a, b)| *a + (*b - *a) * t).collect();
-            pair.distance_within(mesh, &x, f64::INFINITY)
+            pair.distance_within(mesh, &x, &HullCull::new(f64::INFINITY, &x))
                 .unwrap_or(f64::INFINITY)
         })
         .fold(f64::INFINITY, f64::min)

@@ -51,6 +51,7 @@ use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::{Error, Result};
+use crate::geom::distance::HullCull;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::{Counters, FrameStats};
@@ -319,7 +320,7 @@ impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<
 struct Gather<'a> {
     mesh: &'a Mesh,
     x: &'a [DVec3],
-    reach: f64,
+    hulls: HullCull,
     max: usize,
     found: AtomicUsize,
 }
@@ -335,7 +336,7 @@ impl LeafVisitor for Gather<'_> {
         let before = out.len();
         for_each_owned_pair(self.mesh, a, b, |p| {
             let p = p.canonical();
-            if let Some(d) = p.distance_within(self.mesh, self.x, self.reach) {
+            if let Some(d) = p.distance_within(self.mesh, self.x, &self.hulls) {
                 out.push((d, p));
             }
         });
@@ -528,7 +529,7 @@ impl SelfQueries {
         let gather = Gather {
             mesh,
             x,
-            reach: gap,
+            hulls: HullCull::new(gap, x),
             max: self.max_contacts,
             found: AtomicUsize::new(0),
         };

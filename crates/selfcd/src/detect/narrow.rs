@@ -8,7 +8,7 @@
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
 use crate::geom::ccd::{distance2, StencilKind};
-use crate::geom::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
+use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2, HullCull};
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -155,6 +155,8 @@ pub struct Proximity<'a> {
     pub positions: &'a [DVec3],
     /// Thickness: report element pairs strictly closer than this.
     pub thickness: f64,
+    /// The element-level cull for this thickness and these positions.
+    hulls: HullCull,
     /// Most contacts collected; past it, visits stop and [`Proximity::check_output`] fails.
     pub max_contacts: usize,
     /// Contacts collected so far, over all threads.
@@ -173,6 +175,7 @@ impl<'a> Proximity<'a> {
             mesh,
             positions,
             thickness,
+            hulls: HullCull::new(thickness, positions),
             max_contacts,
             found: AtomicUsize::new(0),
         }
@@ -206,7 +209,7 @@ impl<'a> Proximity<'a> {
         }
         let [a, b, c] = self.mesh.corners(self.positions, t as usize);
         let p = self.positions[v as usize];
-        if hulls_apart(&[p], &[a, b, c], self.thickness) {
+        if self.hulls.apart(&[p], &[a, b, c]) {
             return None;
         }
         let (d2, bary) = point_triangle_distance2(p, a, b, c);
@@ -229,7 +232,7 @@ impl<'a> Proximity<'a> {
             return None;
         }
         let p = |i: u32| self.positions[i as usize];
-        if hulls_apart(&[p(a), p(b)], &[p(c), p(d)], self.thickness) {
+        if self.hulls.apart(&[p(a), p(b)], &[p(c), p(d)]) {
             return None;
         }
         let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
@@ -342,16 +345,16 @@ impl ElementPair {
     }
 
     /// The distance of the two elements at `x` when they share no vertex and
-    /// are closer than `reach`, else `None`.
-    pub fn distance_within(self, mesh: &Mesh, x: &[DVec3], reach: f64) -> Option<f64> {
+    /// are closer than `hulls.gap` (a cull made for `x`), else `None`.
+    pub fn distance_within(self, mesh: &Mesh, x: &[DVec3], hulls: &HullCull) -> Option<f64> {
         let (kind, ids) = self.stencil(mesh)?;
         let corners = ids.map(|i| x[i as usize]);
         let (first, second) = corners.split_at(kind.split());
-        if hulls_apart(first, second, reach) {
+        if hulls.apart(first, second) {
             return None;
         }
         let d2 = distance2(kind, &corners);
-        (d2 < reach * reach).then(|| d2.sqrt())
+        (d2 < hulls.gap * hulls.gap).then(|| d2.sqrt())
     }
 }
 

@@ -8,6 +8,7 @@
 
 use super::Aabb;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Relative slack of [`hulls_apart`], in units of the coordinates' magnitude:
 /// far above the rounding of the distance functions here.
@@ -29,6 +30,41 @@ pub fn hulls_apart(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
         .max(bb.max.abs())
         .max_element();
     !ba.within(&bb, gap + APART_SLACK * mag)
+}
+
+/// [`hulls_apart`] for one query: `gap` and the slack fixed once, from the
+/// largest coordinate magnitude of the query's positions (at least any
+/// pair's own, so it rejects no pair that [`hulls_apart`] keeps), instead of
+/// per pair (a third of the cull's cost).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HullCull {
+    /// The distance asked for.
+    pub gap: f64,
+    /// `gap` plus the slack.
+    reach: f64,
+}
+
+impl HullCull {
+    /// The cull for pairs of points among `positions` closer than `gap`.
+    pub fn new(gap: f64, positions: &[DVec3]) -> HullCull {
+        let size = |p: &DVec3| p.abs().max_element();
+        let magnitude = if positions.len() >= 1 << 14 {
+            positions.par_iter().map(size).reduce(|| 0.0, f64::max)
+        } else {
+            positions.iter().map(size).fold(0.0, f64::max)
+        };
+        HullCull {
+            gap,
+            reach: gap + APART_SLACK * magnitude,
+        }
+    }
+
+    /// True when the convex hulls of `a` and `b` (points of the positions the
+    /// cull was made for) are certainly farther apart than the gap.
+    #[inline]
+    pub fn apart(&self, a: &[DVec3], b: &[DVec3]) -> bool {
+        !Aabb::from_points(a).within(&Aabb::from_points(b), self.reach)
+    }
 }
 
 /// Closest point of triangle (a, b, c) to `p`, as barycentric weights (wa, wb, wc).
@@ -144,6 +180,38 @@ pub fn segment_segment_distance2(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::SplitMix;
+
+    /// The query-wide cull keeps every pair the per-pair one keeps, at any
+    /// scale, including pairs just past the gap (where only the slack keeps them).
+    #[test]
+    fn hull_cull_keeps_what_hulls_apart_keeps() {
+        let mut rng = SplitMix::new(7);
+        let mut unit = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        for scale in [1e-300, 1e-9, 1.0, 1e6, 1e300] {
+            let x: Vec<DVec3> = (0..400)
+                .map(|_| DVec3::new(unit(), unit(), unit()) * scale)
+                .collect();
+            let gap = 0.05 * scale;
+            let cull = HullCull::new(gap, &x);
+            let (mut kept, mut near) = (0, 0);
+            for k in 0..x.len() - 4 {
+                let (a, b) = (&x[k..k + 2], &x[k + 2..k + 4]);
+                let apart = hulls_apart(a, b, gap);
+                kept += !apart as usize;
+                assert!(apart || !cull.apart(a, b), "scale {scale}, pair {k}");
+                // A copy moved to just past the gap along x: kept by the slack only.
+                let past = gap * (1.0 + 1e-12);
+                let c = [a[0], a[0]];
+                let d = [c[0] + DVec3::X * past, c[0] + DVec3::X * past];
+                if !hulls_apart(&c, &d, gap) {
+                    near += 1;
+                    assert!(!cull.apart(&c, &d));
+                }
+            }
+            assert!(kept > 0 && near > 0, "scale {scale}: {kept} {near}");
+        }
+    }
 
     #[test]
     fn point_triangle_regions() {
