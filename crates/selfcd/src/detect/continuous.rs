@@ -152,9 +152,6 @@ pub(crate) fn swept_query(
     } else {
         traverse(bvh, mesh, thickness, &BoxesOnly, &visitor)
     };
-    if std::env::var("DBG_SWEPT").is_ok() {
-        eprintln!("{counters:?}");
-    }
     (Impacts::from_items(items), counters)
 }
 
