@@ -44,7 +44,7 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
-    collect_proximity, for_each_owned_pair, ElementPair, Intersect, Near, Proximity,
+    collect_proximity, for_each_owned_pair, sorted_by_key, ElementPair, Intersect, Near, Proximity,
     ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
@@ -538,29 +538,31 @@ impl SelfQueries {
             contour: false,
             gap,
         };
-        let (mut pairs, c) = self_traverse(&self.bvh, mesh, x, opts, &gather);
+        let (pairs, c) = self_traverse(&self.bvh, mesh, x, opts, &gather);
         if pairs.len() > self.max_contacts {
             return Err(Error::TooManyContacts {
                 limit: self.max_contacts,
                 thickness: gap,
             });
         }
-        // The pairs within `reach` in the answers' order (kind, first id,
-        // second id: unique keys packed into one integer), then the skin's by
-        // distance (a distance is >= 0, so its bits order like it; then the
-        // same key for ties).
-        pairs.par_sort_unstable_by_key(|&(d, p)| {
-            let (kind, a, b) = match p {
-                ElementPair::VertexTriangle(a, b) => (0u128, a, b),
-                ElementPair::EdgeEdge(a, b) => (1u128, a, b),
-            };
-            let key = kind << 64 | (a as u128) << 32 | b as u128;
-            let skin = d > reach;
-            (skin, if skin { d.to_bits() } else { 0 }, key)
-        });
-        let within = pairs.partition_point(|&(d, _)| d <= reach);
-        let vertex_triangles =
-            pairs[..within].partition_point(|(_, p)| matches!(p, ElementPair::VertexTriangle(..)));
+        // The pairs within `reach` in the answers' order: vertex-triangle
+        // pairs, then edge-edge, each by ids (counting sorts); then the skin's
+        // by distance (a distance is >= 0, so its bits order like it), ties by
+        // pair. Keys are unique, so the order does not depend on the input's.
+        let (within, mut skin): (Vec<_>, Vec<_>) =
+            pairs.into_par_iter().partition(|&(d, _)| d <= reach);
+        let (vt, ee): (Vec<_>, Vec<_>) = within
+            .into_par_iter()
+            .partition(|(_, p)| matches!(p, ElementPair::VertexTriangle(..)));
+        let ids = |(_, p): &(f64, ElementPair)| match *p {
+            ElementPair::VertexTriangle(a, b) | ElementPair::EdgeEdge(a, b) => (a, b),
+        };
+        let ((vt, ee), ()) = rayon::join(
+            || rayon::join(|| sorted_by_key(vt, ids), || sorted_by_key(ee, ids)),
+            || skin.par_sort_unstable_by_key(|&(d, p)| (d.to_bits(), p)),
+        );
+        let (vertex_triangles, within) = (vt.len(), vt.len() + ee.len());
+        let pairs = [vt, ee, skin].concat();
         let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         self.candidates = Candidates {
             reference: x.to_vec(),

@@ -386,7 +386,7 @@ pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
 /// integer, each bucket (a few items) sorted, then the items gathered in that
 /// order (each copied once). O(items + largest first id), against a
 /// comparison sort's log factor.
-fn sorted_by_key<T: Copy + Send + Sync>(
+pub(crate) fn sorted_by_key<T: Copy + Send + Sync>(
     items: Vec<T>,
     key: impl Fn(&T) -> (u32, u32) + Sync,
 ) -> Vec<T> {
