@@ -182,7 +182,9 @@ impl PartTree {
     /// particles `points`: each particle's part, and each part's size and
     /// anchor. The anchor is the sampled triangle whose centroid is closest to
     /// the mean centroid of the part's samples (where a new particle goes);
-    /// ties: the lowest triangle. O(samples + particles).
+    /// ties: the lowest triangle. Only a part that holds no particle gets one
+    /// (particles are added only there); the others' samples are not read.
+    /// O(samples of the parts without a particle + particles).
     pub fn parts(
         &self,
         nodes: &[u32],
@@ -201,37 +203,59 @@ impl PartTree {
                 part[c] = part[up as usize];
             }
         }
+        let of_point: Vec<u32> = points
+            .iter()
+            .map(|p| part[self.leaf_of_triangle[p.tri as usize] as usize])
+            .collect();
+        let mut held = vec![false; nodes.len()];
+        for &p in &of_point {
+            held[p as usize] = true;
+        }
+        Parts {
+            of_point,
+            size: nodes.iter().map(|&n| self.size[n as usize]).collect(),
+            anchor: self.anchors(&part[..self.n_leaves], &held, mesh, positions),
+        }
+    }
+
+    /// The anchor of every part that is not `held` (NONE for those), given the
+    /// part of every coarse leaf: see [`PartTree::parts`].
+    fn anchors(
+        &self,
+        leaf_parts: &[u32],
+        held: &[bool],
+        mesh: &Mesh,
+        positions: &[DVec3],
+    ) -> Vec<u32> {
         let centroid = |t: u32| {
             let [a, b, c] = mesh.corners(positions, t as usize);
             (a + b + c) / 3.0
         };
-        let mut mean = vec![(DVec3::ZERO, 0.0); nodes.len()];
-        let leaf_parts = &part[..self.n_leaves];
-        for (l, &p) in leaf_parts.iter().enumerate() {
-            let m = &mut mean[p as usize];
-            for &t in self.leaf_samples(l) {
+        let open = || {
+            leaf_parts
+                .iter()
+                .enumerate()
+                .filter(|&(_, &p)| !held[p as usize])
+                .map(|(l, &p)| (self.leaf_samples(l), p as usize))
+        };
+        let mut mean = vec![(DVec3::ZERO, 0.0); held.len()];
+        for (samples, p) in open() {
+            let m = &mut mean[p];
+            for &t in samples {
                 *m = (m.0 + centroid(t), m.1 + 1.0);
             }
         }
-        let mut best = vec![(f64::INFINITY, NONE); nodes.len()];
-        for (l, &p) in leaf_parts.iter().enumerate() {
-            let p = p as usize;
+        let mut best = vec![(f64::INFINITY, NONE); held.len()];
+        for (samples, p) in open() {
             let centre = mean[p].0 / mean[p].1;
-            for &t in self.leaf_samples(l) {
+            for &t in samples {
                 let d = centroid(t).distance_squared(centre);
                 if (d, t) < best[p] {
                     best[p] = (d, t);
                 }
             }
         }
-        Parts {
-            of_point: points
-                .iter()
-                .map(|p| part[self.leaf_of_triangle[p.tri as usize] as usize])
-                .collect(),
-            size: nodes.iter().map(|&n| self.size[n as usize]).collect(),
-            anchor: best.iter().map(|&(_, t)| t).collect(),
-        }
+        best.iter().map(|&(_, t)| t).collect()
     }
 
     fn leaf_samples(&self, l: usize) -> &[u32] {
@@ -270,7 +294,8 @@ pub struct Parts {
     pub of_point: Vec<u32>,
     /// Triangles per part.
     pub size: Vec<u32>,
-    /// Anchor triangle per part.
+    /// Anchor triangle of every part that holds no particle (where one is
+    /// added); `u32::MAX` for a part that holds one.
     pub anchor: Vec<u32>,
 }
 
@@ -359,8 +384,12 @@ mod tests {
                 assert!(under_node(&tree, nodes[part as usize], leaf));
             }
             for (part, &t) in parts.anchor.iter().enumerate() {
-                let leaf = tree.leaf_of_triangle[t as usize];
-                assert!(under_node(&tree, nodes[part], leaf));
+                let held = parts.of_point.contains(&(part as u32));
+                assert_eq!(t == NONE, held, "part {part}");
+                if !held {
+                    let leaf = tree.leaf_of_triangle[t as usize];
+                    assert!(under_node(&tree, nodes[part], leaf));
+                }
             }
         }
     }
