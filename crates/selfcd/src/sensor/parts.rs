@@ -20,6 +20,13 @@
 //! the sampled count is at most about the exact count, and a coarse leaf is
 //! always one part.
 //!
+//! A fit recomputes only what moved: a coarse leaf whose sampled triangles'
+//! corners kept their positions (the part of a sheet that a fold, roll or
+//! bend leaves in place) keeps its cone, and a node keeps its merged cone when
+//! neither child's changed. The cones, and so the parts, are exactly those of
+//! a fit from scratch; telling what moved costs a comparison of a sample's
+//! corners with their copy from the last fit, a tenth of its cone and merge.
+//!
 //! [`Parts`] says which part holds each particle, and gives per part its size
 //! (triangles) and an anchor triangle, so that the sensor can see which parts
 //! carry no particle (where a part appeared) and which carry several (where
@@ -64,6 +71,11 @@ pub struct PartTree {
     leaf_of_triangle: Vec<u32>,
     /// Sampled cone of every coarse node, as of the last [`PartTree::fit`].
     cones: Vec<NormalCone>,
+    /// Corners of every sampled triangle at the last fit (NaN before the
+    /// first): a leaf whose samples all kept theirs keeps its cone.
+    seen: Vec<[DVec3; 3]>,
+    /// Whether each coarse node's cone changed in the last fit.
+    moved: Vec<bool>,
 }
 
 impl PartTree {
@@ -110,6 +122,8 @@ impl PartTree {
             samples: Vec::new(),
             leaf_of_triangle: vec![0; bvh.n_leaves],
             cones: vec![NormalCone::FULL; n_coarse],
+            seen: Vec::new(),
+            moved: vec![true; n_coarse],
         };
         for (i, &node) in above.iter().enumerate() {
             let kids = bvh.children_of(node).map(|c| id[c as usize]);
@@ -128,6 +142,7 @@ impl PartTree {
             tree.samples.extend(spread(&tris, SAMPLES));
             tree.offsets.push(tree.samples.len() as u32);
         }
+        tree.seen = vec![[DVec3::NAN; 3]; tree.samples.len()];
         tree
     }
 
@@ -151,19 +166,54 @@ impl PartTree {
     /// coarse leaves, in depth-first order (first child first).
     pub fn fit(&mut self, mesh: &Mesh, positions: &[DVec3]) -> Vec<u32> {
         for l in 0..self.n_leaves {
-            let range = self.offsets[l] as usize..self.offsets[l + 1] as usize;
-            self.cones[l] = self.samples[range]
-                .iter()
-                .map(|&t| {
-                    let [a, b, c] = mesh.corners(positions, t as usize);
-                    NormalCone::of_triangle(a, b, c)
-                })
-                .reduce(|x, y| x.merge(&y))
-                .unwrap_or(NormalCone::FULL);
+            self.moved[l] = self.leaf_moved(l, mesh, positions);
+            if self.moved[l] {
+                self.cones[l] = self.leaf_cone(l, mesh, positions);
+            }
         }
-        for (i, [a, b]) in self.children.iter().enumerate() {
-            self.cones[self.n_leaves + i] = self.cones[*a as usize].merge(&self.cones[*b as usize]);
+        for (i, &[a, b]) in self.children.iter().enumerate() {
+            let (a, b, node) = (a as usize, b as usize, self.n_leaves + i);
+            self.moved[node] = self.moved[a] || self.moved[b];
+            if self.moved[node] {
+                self.cones[node] = self.cones[a].merge(&self.cones[b]);
+            }
         }
+        self.part_nodes()
+    }
+
+    /// True when a corner of coarse leaf `l`'s samples is not where it was at
+    /// the last fit, bit for bit (a signed zero changes a cone's bits too).
+    fn leaf_moved(&self, l: usize, mesh: &Mesh, positions: &[DVec3]) -> bool {
+        let same = |a: DVec3, b: DVec3| {
+            a.x.to_bits() == b.x.to_bits()
+                && a.y.to_bits() == b.y.to_bits()
+                && a.z.to_bits() == b.z.to_bits()
+        };
+        let range = self.offsets[l] as usize..self.offsets[l + 1] as usize;
+        self.samples[range.clone()]
+            .iter()
+            .zip(&self.seen[range])
+            .any(|(&t, seen)| {
+                let [a, b, c] = mesh.corners(positions, t as usize);
+                !(same(a, seen[0]) && same(b, seen[1]) && same(c, seen[2]))
+            })
+    }
+
+    /// The sampled cone of coarse leaf `l` at `positions`; keeps the samples' corners.
+    fn leaf_cone(&mut self, l: usize, mesh: &Mesh, positions: &[DVec3]) -> NormalCone {
+        let mut cone = None;
+        for s in self.offsets[l] as usize..self.offsets[l + 1] as usize {
+            let [a, b, c] = mesh.corners(positions, self.samples[s] as usize);
+            self.seen[s] = [a, b, c];
+            let t = NormalCone::of_triangle(a, b, c);
+            cone = Some(cone.map_or(t, |x: NormalCone| x.merge(&t)));
+        }
+        cone.unwrap_or(NormalCone::FULL)
+    }
+
+    /// The top-most coarse nodes whose cone is positive, or coarse leaves, in
+    /// depth-first order (first child first).
+    fn part_nodes(&self) -> Vec<u32> {
         let mut stack = vec![(self.n_nodes() - 1) as u32];
         let mut parts = Vec::new();
         while let Some(node) = stack.pop() {
@@ -391,6 +441,30 @@ mod tests {
                     assert!(under_node(&tree, nodes[part], leaf));
                 }
             }
+        }
+    }
+
+    /// A fit after another recomputes only the leaves whose samples moved,
+    /// and gives the cones and parts of a fit from scratch.
+    #[test]
+    fn a_fit_after_a_fit_is_a_fit_from_scratch() {
+        let (v, f) = grid(41, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let bvh = build(&mesh);
+        let mut tree = PartTree::new(&bvh, 8);
+        tree.fit(&mesh, mesh.rest());
+        for angle in [1.0, 2.5, 3.5] {
+            let folded = Deformation::Fold {
+                angle,
+                radius: 0.05,
+            }
+            .apply(mesh.rest());
+            let parts = tree.fit(&mesh, &folded);
+            let moved = tree.moved[..tree.n_leaves()].iter().filter(|&&m| m).count();
+            assert!(0 < moved && moved < tree.n_leaves(), "{moved} leaves moved");
+            let mut fresh = PartTree::new(&bvh, 8);
+            assert_eq!(fresh.fit(&mesh, &folded), parts, "fold {angle}");
+            assert_eq!(fresh.cones, tree.cones, "fold {angle}");
         }
     }
 
