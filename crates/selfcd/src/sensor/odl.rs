@@ -147,10 +147,10 @@ impl Field {
     /// True when no corner of the triangle of the particle at `ai` can be
     /// within `reach` of this field's source, by the rest chord alone: the
     /// corners are within `ai.longest` of `ai`, and the source is
-    /// `|source - aj|` from the field's particle at `aj`. A surface path is no
-    /// shorter than the chord, so the field is infinite at those corners
-    /// (the march would overestimate the straight distance there, never
-    /// underestimate it), and the path needs no march.
+    /// `|source - aj|` from the field's particle at `aj`. Neither a surface
+    /// path nor the march (test `the_march_is_never_shorter_than_the_straight_line`)
+    /// is shorter than the straight line, so the field is infinite at those
+    /// corners, and the path needs no march.
     #[inline]
     fn beyond(&self, ai: &Located, aj: &Located, reach: f64) -> bool {
         ai.rest.distance(aj.rest) > reach + ai.longest + self.source.distance(aj.rest)
