@@ -213,8 +213,12 @@ impl Sensor {
     /// (added, removed).
     pub fn follow_parts(&mut self, parts: &Parts, target: usize) -> (usize, usize) {
         let comp = self.odl.components().clone();
-        let n_comp = comp.iter().max().map_or(0, |&c| c as usize + 1);
-        let mut per_comp = vec![0usize; n_comp];
+        // Particles per component, over the particles' components only (O(k), not O(n)).
+        let n_comp = self
+            .points
+            .iter()
+            .map(|p| comp[p.tri as usize] as usize + 1);
+        let mut per_comp = vec![0usize; n_comp.max().unwrap_or(0)];
         for p in &self.points {
             per_comp[comp[p.tri as usize] as usize] += 1;
         }
