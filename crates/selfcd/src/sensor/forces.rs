@@ -68,9 +68,41 @@ impl Local {
 /// above; `path` is the original path from i to j.
 #[inline]
 pub fn pair_force(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> DVec3 {
+    terms(i, j, path, a, b).map_or(DVec3::ZERO, |t| {
+        t.on_first(i, path.direction, t.attract.unwrap_or(DVec3::ZERO))
+    })
+}
+
+/// What a pair's force is made of: the attraction on the first particle
+/// (None when the particles coincide: no direction) and the repulsion's
+/// magnitude b / ro^2 (None between components: no surface path).
+struct Terms {
+    attract: Option<DVec3>,
+    repel: Option<f64>,
+}
+
+impl Terms {
+    /// The force on particle `i` with attraction `attract`: the repulsion acts
+    /// along minus the path's rest `direction` at i, carried to the current shape.
+    #[inline]
+    fn on_first(&self, i: &Local, direction: DVec3, attract: DVec3) -> DVec3 {
+        let Some(repel) = self.repel else {
+            return attract;
+        };
+        let tangent = i
+            .map
+            .to_current(direction)
+            .map_or(DVec3::ZERO, |v| v.normalize_or_zero());
+        attract - tangent * repel
+    }
+}
+
+/// The terms of the force on `i` from `j`; None when ro is zero (no force).
+#[inline]
+fn terms(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> Option<Terms> {
     let ro = path.length;
     if !(ro > TINY) {
-        return DVec3::ZERO;
+        return None;
     }
     let chord = j.current - i.current;
     let rs = chord.length();
@@ -80,23 +112,22 @@ pub fn pair_force(i: &Local, j: &Local, path: &Path, a: f64, b: f64) -> DVec3 {
         (false, true) => ((c0 - rs) / c0).max(0.0),
         (false, false) => 1.0,
     };
-    let attract = if rs > TINY {
-        chord * (t * a / (rs * rs * rs))
-    } else {
-        DVec3::ZERO
-    };
-    if !ro.is_finite() {
-        return attract;
-    }
-    let tangent = i
-        .map
-        .to_current(path.direction)
-        .map_or(DVec3::ZERO, |v| v.normalize_or_zero());
-    attract - tangent * (b / (ro * ro))
+    Some(Terms {
+        attract: (rs > TINY).then(|| chord * (t * a / (rs * rs * rs))),
+        repel: ro.is_finite().then(|| b / (ro * ro)),
+    })
 }
 
 /// Writes F_i for every particle i (normalised units, current-space directions)
 /// into `out`; `at` is [`OriginalDistance::locate`] of `points`.
+///
+/// On a flat rest shape the original path is symmetric (the rest chord, or no
+/// path between components), so every term but the repulsion's direction is
+/// the same from both ends and the attraction is opposite: each unordered pair
+/// is computed once and gives both forces (the sums, in the same order, are
+/// bit for bit those of the ordered pairs). A curved shape's path from i reads
+/// j's geodesic field and the one from j reads i's, so there every ordered
+/// pair is its own.
 pub fn forces(
     locals: &[Local],
     (points, at): (&[SurfacePoint], &[Located]),
@@ -106,6 +137,24 @@ pub fn forces(
     out: &mut Vec<DVec3>,
 ) {
     out.clear();
+    if odl.is_flat() {
+        out.resize(locals.len(), DVec3::ZERO);
+        for (i, li) in locals.iter().enumerate() {
+            for (j, lj) in locals.iter().enumerate().skip(i + 1) {
+                let path = odl.path_between((&points[i], &at[i]), (&points[j], &at[j]), j);
+                let (fi, fj) = terms(li, lj, &path, a, b).map_or(Default::default(), |t| {
+                    let back = t.attract.map_or(DVec3::ZERO, |v| -v);
+                    (
+                        t.on_first(li, path.direction, t.attract.unwrap_or(DVec3::ZERO)),
+                        t.on_first(lj, -path.direction, back),
+                    )
+                });
+                out[i] += fi;
+                out[j] += fj;
+            }
+        }
+        return;
+    }
     out.extend(locals.iter().enumerate().map(|(i, li)| {
         let from = (&points[i], &at[i]);
         locals
@@ -118,4 +167,57 @@ pub fn forces(
             })
             .sum::<DVec3>()
     }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{grid, Deformation, SplitMix};
+    use std::sync::Arc;
+
+    /// On a flat rest shape, the forces from unordered pairs are bit for bit
+    /// the sums of [`pair_force`] over ordered pairs, coinciding particles and
+    /// a second component included.
+    #[test]
+    fn flat_forces_from_unordered_pairs_are_the_ordered_sums() {
+        let (mut v, mut f) = grid(21, 1.0);
+        let n = v.len() as u32;
+        v.extend([[2.0, 0.0, 0.0], [2.6, 0.0, 0.0], [2.0, 0.6, 0.0]]);
+        f.push([n, n + 1, n + 2]);
+        let mesh = Arc::new(Mesh::new(v, f).unwrap());
+        let odl = OriginalDistance::new(mesh.clone());
+        assert!(odl.is_flat());
+        let shape = Deformation::Crumple {
+            amplitude: 0.2,
+            wavelength: 0.5,
+            seed: 3,
+        }
+        .apply(mesh.rest());
+        let mut rng = SplitMix::new(9);
+        let mut points: Vec<SurfacePoint> = (0..20)
+            .map(|_| SurfacePoint {
+                tri: (rng.next_u64() % mesh.n_triangles() as u64) as u32,
+                bary: [0.5, 0.25, 0.25],
+            })
+            .collect();
+        points.push(points[3]);
+        points.push(SurfacePoint::centroid(mesh.n_triangles() as u32 - 1));
+        let unit = mesh.mean_edge_length();
+        let locals: Vec<Local> = points
+            .iter()
+            .map(|p| Local::new(&mesh, &shape, p, unit))
+            .collect();
+        let mut at = Vec::new();
+        odl.locate(&points, &mut at);
+        let mut out = Vec::new();
+        forces(&locals, (&points, &at), &odl, 20.0, 10.0, &mut out);
+        for (i, li) in locals.iter().enumerate() {
+            let ordered: DVec3 = (0..locals.len())
+                .filter(|&j| j != i)
+                .map(|j| pair_force(li, &locals[j], &odl.path(&points, i, j), 20.0, 10.0))
+                .sum();
+            let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+            assert_eq!(bits(out[i]), bits(ordered), "particle {i}");
+        }
+    }
 }

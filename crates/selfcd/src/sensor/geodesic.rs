@@ -153,4 +153,38 @@ mod tests {
         assert!(worst < 0.02, "worst error {worst} on a unit square");
         assert!(dist[n as usize..].iter().all(|d| d.is_infinite()));
     }
+
+    /// The march never puts a vertex closer to the source than the straight
+    /// line: what lets a path skip a field beyond its reach by the chord alone
+    /// ([`super::super::odl`]).
+    #[test]
+    fn the_march_is_never_shorter_than_the_straight_line() {
+        use crate::scene::{tube, Deformation};
+        let (v, f) = grid(41, 1.0);
+        let flat = Mesh::new(v, f.clone()).unwrap();
+        let crumpled = Deformation::Crumple {
+            amplitude: 0.2,
+            wavelength: 0.5,
+            seed: 7,
+        }
+        .apply(flat.rest());
+        let crumpled = Mesh::new(crumpled.iter().map(|p| p.to_array()).collect(), f).unwrap();
+        let (v, f) = tube(24, 25, 0.2, 1.0);
+        for mesh in [crumpled, Mesh::new(v, f).unwrap()] {
+            let cut = 12.0 * mesh.mean_edge_length();
+            let mut dist = Vec::new();
+            for tri in (0..mesh.n_triangles() as u32).step_by(97) {
+                let src = SurfacePoint::centroid(tri);
+                Marcher::default().distance_field(&mesh, mesh.rest(), &src, cut, &mut dist);
+                let s = src.rest_position(&mesh);
+                for (d, p) in dist.iter().zip(mesh.rest()).filter(|(d, _)| d.is_finite()) {
+                    assert!(
+                        *d >= p.distance(s) * (1.0 - 1e-12),
+                        "{d} < {}",
+                        p.distance(s)
+                    );
+                }
+            }
+        }
+    }
 }

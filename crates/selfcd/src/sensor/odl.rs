@@ -13,14 +13,18 @@
 //!   the straight rest segment, ro = |R_j - R_i|, direction R_j - R_i; exact
 //!   whenever the segment stays on the sheet (a lower bound across holes or notches).
 //! - Curved rest shape: a geodesic distance field per particle
-//!   ([`super::geodesic`]), computed from the particle's rest position and
-//!   recomputed only once the particle has walked more than [`REFRESH`] mean
-//!   edges from where it was computed (so a quiet frame computes none). ro(i, j)
-//!   is field_j interpolated at particle i (never below the chord |R_j - R_i|,
-//!   a lower bound of any surface path); the direction at i is minus the
-//!   gradient of field_j on i's rest triangle. Within [`NEAR`] mean edges, or in
-//!   one triangle, where the field's linear interpolation is coarse, the chord
-//!   is used instead.
+//!   ([`super::geodesic`]), from the particle's rest position, renewed only
+//!   once the particle has walked more than [`REFRESH`] mean edges from that
+//!   source (so a quiet frame computes none). ro(i, j) is field_j interpolated
+//!   at particle i (never below the chord |R_j - R_i|, a lower bound of any
+//!   surface path); the direction at i is minus the gradient of field_j on i's
+//!   rest triangle. Within [`NEAR`] mean edges, or in one triangle, where the
+//!   field's linear interpolation is coarse, the chord is used instead. Where
+//!   the chord alone puts every corner of i's triangle beyond the field's
+//!   reach, the field is not read (see [`OriginalDistance::path_between`]), so
+//!   a renewed field is marched only once some particle comes that close
+//!   ([`OriginalDistance::prepare`]): particles spread far apart on a large
+//!   mesh march none.
 //!
 //! The fields and chords are computed on a copy of the rest shape in
 //! mean-edge units, snapped to a grid of 2^-32 units: the same bits whatever
@@ -117,13 +121,40 @@ pub struct Located {
     pub rest: DVec3,
     /// Component of its triangle.
     pub component: u32,
+    /// Longest rest edge of its triangle (normalised units): no corner is
+    /// farther from the point, and a linearly interpolated distance
+    /// overestimates by at most this.
+    pub longest: f64,
 }
 
-/// A geodesic field and the rest point it was computed from.
+/// A geodesic field and the surface point it is computed from. The source is
+/// set when the particle walked [`REFRESH`] away from the last one; the
+/// distances are marched from it only when a path reads them
+/// ([`OriginalDistance::prepare`]), and are then exactly what an immediate
+/// march would have given.
 #[derive(Debug, Clone)]
 struct Field {
+    /// The source's position in the normalised rest copy.
     source: DVec3,
+    /// The source point.
+    from: SurfacePoint,
     dist: Vec<f64>,
+    /// True when `dist` was marched from `from`.
+    marched: bool,
+}
+
+impl Field {
+    /// True when no corner of the triangle of the particle at `ai` can be
+    /// within `reach` of this field's source, by the rest chord alone: the
+    /// corners are within `ai.longest` of `ai`, and the source is
+    /// `|source - aj|` from the field's particle at `aj`. Neither a surface
+    /// path nor the march (test `the_march_is_never_shorter_than_the_straight_line`)
+    /// is shorter than the straight line, so the field is infinite at those
+    /// corners, and the path needs no march.
+    #[inline]
+    fn beyond(&self, ai: &Located, aj: &Located, reach: f64) -> bool {
+        ai.rest.distance(aj.rest) > reach + ai.longest + self.source.distance(aj.rest)
+    }
 }
 
 /// The original distance of one mesh, with the per-particle geodesic fields of a curved rest shape.
@@ -198,27 +229,64 @@ impl OriginalDistance {
         self.reach
     }
 
-    /// Makes the field of every particle current (curved rest shapes only):
-    /// computes missing ones and those whose particle walked more than [`REFRESH`] from the source.
+    /// Makes the field of every particle current for paths between `points`
+    /// (curved rest shapes only): [`Self::renew`], then [`Self::prepare`].
     pub fn refresh(&mut self, points: &[SurfacePoint]) {
+        let mut at = Vec::with_capacity(points.len());
+        self.locate(points, &mut at);
+        self.renew(points);
+        self.prepare(points, &at);
+    }
+
+    /// Moves the source of every field whose particle walked more than
+    /// [`REFRESH`] from it (or that has none) to the particle; marches nothing.
+    pub fn renew(&mut self, points: &[SurfacePoint]) {
         if self.flat {
             return;
         }
         self.fields.resize(points.len(), None);
         for (p, slot) in points.iter().zip(self.fields.iter_mut()) {
             let r = p.position(&self.mesh, &self.rest);
-            if let Some(f) = slot {
-                if f.source.distance(r) <= REFRESH {
-                    continue;
+            match slot {
+                Some(f) if f.source.distance(r) <= REFRESH => {}
+                Some(f) => (f.source, f.from, f.marched) = (r, *p, false),
+                None => {
+                    *slot = Some(Field {
+                        source: r,
+                        from: *p,
+                        dist: Vec::new(),
+                        marched: false,
+                    })
                 }
             }
-            let mut dist = slot.take().map(|f| f.dist).unwrap_or_default();
-            self.vertices_marched += self
-                .marcher
-                .distance_field(&self.mesh, &self.rest, p, self.reach, &mut dist)
-                as u64;
+        }
+    }
+
+    /// Marches every renewed field that a path between `points` (located at
+    /// `at`) reads: one whose particle has another particle of its component,
+    /// on another triangle, not [`Field::beyond`] its reach.
+    pub fn prepare(&mut self, points: &[SurfacePoint], at: &[Located]) {
+        for j in 0..self.fields.len().min(points.len()) {
+            let Some(f) = &self.fields[j] else { continue };
+            let read = |i: usize| {
+                i != j
+                    && at[i].component == at[j].component
+                    && points[i].tri != points[j].tri
+                    && !f.beyond(&at[i], &at[j], self.reach)
+            };
+            if f.marched || !(0..points.len()).any(read) {
+                continue;
+            }
+            let f = self.fields[j].as_mut().expect("a field");
+            self.vertices_marched += self.marcher.distance_field(
+                &self.mesh,
+                &self.rest,
+                &f.from,
+                self.reach,
+                &mut f.dist,
+            ) as u64;
             self.fields_computed += 1;
-            *slot = Some(Field { source: r, dist });
+            f.marched = true;
         }
     }
 
@@ -233,13 +301,18 @@ impl OriginalDistance {
     /// update, not once per pair.
     pub fn locate(&self, points: &[SurfacePoint], out: &mut Vec<Located>) {
         out.clear();
-        out.extend(points.iter().map(|p| Located {
-            rest: p.position(&self.mesh, &self.rest),
-            component: self.component[p.tri as usize],
+        out.extend(points.iter().map(|p| {
+            let [a, b, c] = self.mesh.corners(&self.rest, p.tri as usize);
+            Located {
+                rest: a * p.bary[0] + b * p.bary[1] + c * p.bary[2],
+                component: self.component[p.tri as usize],
+                longest: a.distance(b).max(b.distance(c)).max(c.distance(a)),
+            }
         }));
     }
 
-    /// The path from particle `i` to particle `j` of `points` (after [`Self::refresh`] for curved shapes).
+    /// The path from particle `i` to particle `j` of `points` (after
+    /// [`Self::refresh`] of these points for curved shapes).
     pub fn path(&self, points: &[SurfacePoint], i: usize, j: usize) -> Path {
         let mut at = Vec::with_capacity(2);
         self.locate(&[points[i], points[j]], &mut at);
@@ -247,7 +320,10 @@ impl OriginalDistance {
     }
 
     /// [`Self::path`] from particle `pi` to particle `j`, `pj`, each with its
-    /// [`Located`] point.
+    /// [`Located`] point (after [`Self::prepare`] of the particles). Field j is
+    /// read only when i is not [`Field::beyond`] its reach; otherwise the path
+    /// is what the field would give there (every corner infinite, the
+    /// particle farther than the reach: the chord).
     #[inline]
     pub fn path_between(
         &self,
@@ -271,13 +347,13 @@ impl OriginalDistance {
             direction: chord,
         };
         let field = match self.fields.get(j) {
-            Some(Some(f)) if !self.flat && pi.tri != pj.tri => f,
+            Some(Some(f)) if !self.flat && pi.tri != pj.tri && !f.beyond(ai, aj, self.reach) => f,
             _ => return straight,
         };
+        debug_assert!(field.marched, "field {j} read before it was prepared");
         let corners = self.mesh.triangles()[pi.tri as usize].map(|v| field.dist[v as usize]);
         let along: f64 = corners.iter().zip(&pi.bary).map(|(d, b)| d * b).sum();
-        let [a, b, c] = self.mesh.triangles()[pi.tri as usize].map(|v| self.rest[v as usize]);
-        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+        let longest = ai.longest;
         if along.is_infinite() {
             // A corner lies beyond the reach, and the particle within `longest` of it.
             let beyond = straight.length.max(self.reach - longest);
@@ -303,6 +379,73 @@ impl OriginalDistance {
             lower: (along - longest - field.source.distance(aj.rest)).max(straight.length),
             direction,
             ..straight
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{grid, Deformation, SplitMix};
+
+    /// A crumpled sheet as the rest shape: curved everywhere.
+    fn crumpled_rest(n: usize) -> Arc<Mesh> {
+        let (v, f) = grid(n, 1.0);
+        let flat = Mesh::new(v, f.clone()).unwrap();
+        let rest = Deformation::Crumple {
+            amplitude: 0.2,
+            wavelength: 0.5,
+            seed: 7,
+        }
+        .apply(flat.rest());
+        Arc::new(Mesh::new(rest.iter().map(|p| p.to_array()).collect(), f).unwrap())
+    }
+
+    /// Fields marched only where a path reads them give every path exactly as
+    /// fields marched for every particle do, and particles far apart march none.
+    #[test]
+    fn lazy_fields_give_the_paths_of_eager_ones() {
+        let mesh = crumpled_rest(101);
+        let mut rng = SplitMix::new(5);
+        let points: Vec<SurfacePoint> = (0..12)
+            .map(|_| SurfacePoint {
+                tri: (rng.next_u64() % mesh.n_triangles() as u64) as u32,
+                bary: [0.2, 0.3, 0.5],
+            })
+            .collect();
+        let mut lazy = OriginalDistance::new(mesh.clone());
+        assert!(!lazy.is_flat());
+        lazy.refresh(&points);
+        let mut eager = lazy.clone();
+        for f in eager.fields.iter_mut().flatten().filter(|f| !f.marched) {
+            eager.marcher.distance_field(
+                &eager.mesh,
+                &eager.rest,
+                &f.from,
+                eager.reach,
+                &mut f.dist,
+            );
+            f.marched = true;
+        }
+        let marched = lazy.fields_computed as usize;
+        assert!(0 < marched && marched < points.len(), "{marched} marched");
+        let mut at = Vec::new();
+        eager.locate(&points, &mut at);
+        for i in 0..points.len() {
+            for j in (0..points.len()).filter(|&j| j != i) {
+                assert_eq!(
+                    lazy.path(&points, i, j),
+                    eager.path(&points, i, j),
+                    "{i}->{j}"
+                );
+                // Where the chord skips the field, the field is infinite at
+                // every corner: the path is the one the field would give.
+                let f = eager.fields[j].as_ref().unwrap();
+                if f.beyond(&at[i], &at[j], eager.reach) {
+                    let tri = mesh.triangles()[points[i].tri as usize];
+                    assert!(tri.iter().all(|&v| f.dist[v as usize].is_infinite()));
+                }
+            }
         }
     }
 }

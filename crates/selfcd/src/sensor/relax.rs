@@ -213,8 +213,12 @@ impl Sensor {
     /// (added, removed).
     pub fn follow_parts(&mut self, parts: &Parts, target: usize) -> (usize, usize) {
         let comp = self.odl.components().clone();
-        let n_comp = comp.iter().max().map_or(0, |&c| c as usize + 1);
-        let mut per_comp = vec![0usize; n_comp];
+        // Particles per component, over the particles' components only (O(k), not O(n)).
+        let n_comp = self
+            .points
+            .iter()
+            .map(|p| comp[p.tri as usize] as usize + 1);
+        let mut per_comp = vec![0usize; n_comp.max().unwrap_or(0)];
         for p in &self.points {
             per_comp[comp[p.tri as usize] as usize] += 1;
         }
@@ -367,6 +371,8 @@ impl Sensor {
     /// [`Sensor::update`] (positions already checked).
     fn step(&mut self, raw: &[DVec3]) -> u32 {
         self.load_corners(raw);
+        self.odl.renew(&self.points);
+        self.locate();
         let (mesh, positions) = (&*self.norm, &self.scaled);
         let unit = mesh.mean_edge_length();
         self.locals.clear();
@@ -375,8 +381,6 @@ impl Sensor {
                 .iter()
                 .map(|p| Local::new(mesh, positions, p, unit)),
         );
-        self.odl.refresh(&self.points);
-        self.odl.locate(&self.points, &mut self.located);
         forces(
             &self.locals,
             (&self.points, &self.located),
@@ -401,7 +405,7 @@ impl Sensor {
             *p = walk::step(mesh, &l.map, *p, step * unit);
         }
         self.load_corners(raw);
-        self.odl.locate(&self.points, &mut self.located);
+        self.locate();
         let mesh = &*self.norm;
         let mut moving = 0;
         for ((p, l), dmp) in self.points.iter().zip(&self.locals).zip(&mut self.damping) {
@@ -418,8 +422,15 @@ impl Sensor {
     /// (then it does not trigger). First such pair on ties.
     pub fn closest(&mut self, positions: &[DVec3]) -> ClosestPair {
         self.load_corners(positions);
-        self.odl.locate(&self.points, &mut self.located);
+        self.locate();
         self.closest_in_frame()
+    }
+
+    /// Locates the particles in the rest copy and marches the geodesic fields
+    /// that paths between them read ([`OriginalDistance::prepare`]).
+    fn locate(&mut self) {
+        self.odl.locate(&self.points, &mut self.located);
+        self.odl.prepare(&self.points, &self.located);
     }
 
     /// [`Sensor::closest`] at the positions in the buffer, with the particles
