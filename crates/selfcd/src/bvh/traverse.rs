@@ -17,8 +17,8 @@
 //!
 //! Where the cull allows ([`Cull::LEAF_BY_LEAF_WHEN_SMALL`]), the self-test of
 //! a node of at most [`Bvh::SMALL`] triangles, or the pair test of two, tests
-//! their leaf pairs' boxes directly: the same leaf pairs, without the node
-//! pairs in between (most of a proximity query's node pairs lie there).
+//! their leaf pairs' boxes and `pair_culled` directly (siblings too), without
+//! the node pairs in between (most of a proximity query's node pairs lie there).
 //!
 //! Top levels run in parallel with `rayon::join`; each task keeps its own
 //! results, counters and cull buffers, and the join order is fixed, so the
@@ -325,6 +325,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
         if self.slabs_apart(a, b) {
             acc.counters.slab_culls += 1;
+            return;
+        }
+        if self
+            .cull
+            .pair_culled(a, b, &mut acc.scratch, &mut acc.counters)
+        {
             return;
         }
         self.leaf_pair(a, b, acc);

@@ -279,8 +279,6 @@ struct MotionCull<'a> {
 
 impl Cull for MotionCull<'_> {
     type Scratch = ();
-    // [`Uncovered`] checks every leaf pair's spread again.
-    const LEAF_BY_LEAF_WHEN_SMALL: bool = true;
     #[inline]
     fn self_culled(&self, n: u32, _: &mut (), c: &mut Counters) -> bool {
         let culled = self.motion.node_spread(n, n) < self.allowance;
