@@ -390,7 +390,8 @@ def compare_methods(
         frames: (f, n, 3) positions, in order (stateful methods see an animation).
         methods: method names; default every method.
         thickness: proximity thickness passed to every detector.
-        progress: called with the number of (method, frame) runs done so far.
+        progress: called with the number of (method, frame) runs done so far (with 0
+            during the exact reference pass, which runs first).
 
     Returns:
         One dict per method: "method", "stats" (per-frame arrays keyed like

@@ -23,7 +23,8 @@ fn parse_methods(names: Option<Vec<String>>) -> PyResult<Vec<Method>> {
 /// frame, the contacts it missed against the exact reference. Returns one dict
 /// per method: `method`, `stats` (a dict of per-frame arrays, see
 /// `Detector.last_stats`), `missed` and `spurious` (int64 per frame).
-/// `progress`, if given, is called with the number of (method, frame) runs done.
+/// `progress`, if given, is called with the number of (method, frame) runs done
+/// (0 during the reference pass, which runs first).
 #[pyfunction]
 #[pyo3(signature = (mesh, frames, methods = None, thickness = 0.0, progress = None))]
 pub fn compare_methods<'py>(

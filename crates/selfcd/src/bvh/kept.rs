@@ -53,6 +53,9 @@ use std::sync::Mutex;
 /// many times the loop test's cap.
 pub const RESET: f64 = 4.0;
 
+/// Below this many vertices the displacement pass runs on one thread.
+const PAR_MIN: usize = 1 << 14;
+
 /// A kept certificate: the projection axis and how far the vertices may
 /// still move from the reference (see the module doc).
 #[derive(Debug, Clone, Copy)]
@@ -179,11 +182,12 @@ impl KeptCertificates {
     /// pass over the vertices (it holds the root's displacement box, and more
     /// where vertices lie on no triangle).
     fn whole_spread(&self, positions: &[DVec3]) -> Aabb {
-        let d = positions
-            .par_iter()
-            .zip(&self.reference)
-            .map(|(x, r)| *x - *r);
-        d.fold(|| Aabb::EMPTY, |b, p| b.union(&Aabb::from_points(&[p])))
+        let add = |b: Aabb, (x, r): (&DVec3, &DVec3)| b.union(&Aabb::from_points(&[*x - *r]));
+        if positions.len() < PAR_MIN {
+            return positions.iter().zip(&self.reference).fold(Aabb::EMPTY, add);
+        }
+        let d = positions.par_iter().zip(&self.reference);
+        d.fold(|| Aabb::EMPTY, add)
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
     }
 

@@ -32,12 +32,29 @@ pub struct MethodRun {
 /// Exact contacts of every frame (the reference), computed with the conservative
 /// BVH, which the tests check equal to brute force.
 pub fn reference_pairs(mesh: &Arc<Mesh>, frames: &[Vec<DVec3>]) -> Result<Vec<Vec<[u32; 2]>>> {
+    reference_pairs_until(mesh, frames, || Ok(()))
+}
+
+/// [`reference_pairs`], calling `check` after each frame; its first error is
+/// returned at once (so a long reference pass can be interrupted).
+fn reference_pairs_until(
+    mesh: &Arc<Mesh>,
+    frames: &[Vec<DVec3>],
+    mut check: impl FnMut() -> Result<()>,
+) -> Result<Vec<Vec<[u32; 2]>>> {
     let mut det = new_detector(
         mesh.clone(),
         Method::BvhConesContour,
         &DetectorOptions::default(),
     )?;
-    frames.iter().map(|f| Ok(det.detect(f)?.pairs)).collect()
+    frames
+        .iter()
+        .map(|f| {
+            let pairs = det.detect(f)?.pairs;
+            check()?;
+            Ok(pairs)
+        })
+        .collect()
 }
 
 /// Runs each method over `frames` in order (stateful methods see the frames as
@@ -57,7 +74,8 @@ pub fn compare_methods(
 }
 
 /// [`compare_methods`] whose `progress` can stop the run: its first error
-/// (e.g. [`crate::Error::Interrupted`]) is returned at once.
+/// (e.g. [`crate::Error::Interrupted`]) is returned at once. It is also
+/// called with 0 after each frame of the reference pass, which runs first.
 pub fn compare_methods_until(
     mesh: &Arc<Mesh>,
     frames: &[Vec<DVec3>],
@@ -65,7 +83,7 @@ pub fn compare_methods_until(
     opts: &DetectorOptions,
     mut progress: impl FnMut(usize) -> Result<()>,
 ) -> Result<Vec<MethodRun>> {
-    let reference = reference_pairs(mesh, frames)?;
+    let reference = reference_pairs_until(mesh, frames, || progress(0))?;
     let mut done = 0;
     let mut runs = Vec::with_capacity(methods.len());
     for &method in methods {
