@@ -119,9 +119,13 @@ impl KeptCertificates {
         mesh: &Mesh,
         positions: &[DVec3],
     ) -> Option<Reuse<'a>> {
-        let mut reset = self.reference.len() != positions.len()
-            || (self.reset_last && !self.settled(positions));
-        let whole = (!reset).then(|| self.whole_spread(positions));
+        // The whole mesh's displacement box, where it can decide: after a
+        // reset (has the mesh settled?) or with certificates to hold.
+        let same = self.reference.len() == positions.len();
+        let whole = (same && (self.reset_last || !self.kept.is_empty()))
+            .then(|| self.whole_spread(positions));
+        let settled = |b: &Aabb| half_diagonal(b) <= RESET * self.cap;
+        let mut reset = !same || (self.reset_last && !whole.as_ref().is_some_and(settled));
         if reset {
             bvh.refit(mesh, positions);
         } else if let Some(b) =
@@ -130,7 +134,7 @@ impl KeptCertificates {
             bvh.refit(mesh, positions);
             self.spread.clear();
             self.spread.push(b);
-            reset = !(half_diagonal(&b) <= RESET * self.cap);
+            reset = !settled(&b);
         } else {
             let (tris, r) = (mesh.triangles(), &self.reference);
             self.spread.resize(bvh.n_nodes(), Aabb::EMPTY);
@@ -144,8 +148,7 @@ impl KeptCertificates {
                 },
                 Aabb::union,
             );
-            let spread = half_diagonal(&self.spread[bvh.root() as usize]);
-            reset = !(spread <= RESET * self.cap);
+            reset = !settled(&self.spread[bvh.root() as usize]);
         }
         let reset_last = self.reset_last;
         self.reset_last = reset;
@@ -189,13 +192,6 @@ impl KeptCertificates {
         let d = positions.par_iter().zip(&self.reference);
         d.fold(|| Aabb::EMPTY, add)
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
-    }
-
-    /// After a reset, whether the whole mesh now spreads within the cap:
-    /// while the mesh moves too fast, the nodes' displacement boxes are not
-    /// fitted at all.
-    fn settled(&self, positions: &[DVec3]) -> bool {
-        half_diagonal(&self.whole_spread(positions)) <= RESET * self.cap
     }
 
     fn reset(&mut self, positions: &[DVec3]) {

@@ -52,7 +52,7 @@ use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions
 use crate::bvh::{build::build, Bvh};
 use crate::error::{Error, Result};
 use crate::geom::distance::HullCull;
-use crate::geom::Aabb;
+use crate::geom::{magnitude, Aabb};
 use crate::mesh::Mesh;
 use crate::stats::{Counters, FrameStats};
 use glam::DVec3;
@@ -230,11 +230,7 @@ impl Motion {
             }
             self.whole.push(Aabb::from_points(e));
         }
-        self.magnitude = ends
-            .iter()
-            .flat_map(|x| x.iter())
-            .map(|p| p.abs().max_element())
-            .fold(0.0, f64::max);
+        self.magnitude = ends.iter().map(|x| magnitude(x)).fold(0.0, f64::max);
         if self.whole_spread() < allowance {
             return; // every pair is covered: no traversal, no node boxes
         }
@@ -561,7 +557,7 @@ impl SelfQueries {
         );
         let (vertex_triangles, within) = (vt.len(), vt.len() + ee.len());
         let pairs = [vt, ee, skin].concat();
-        let magnitude = x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
+        let magnitude = magnitude(x);
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,
@@ -586,7 +582,6 @@ impl SelfQueries {
     /// `ends`, after rebuilding the set at `ends[0]` when it is stale or does
     /// not reach that far; fits the displacement boxes.
     fn prepare(&mut self, ends: &[&[DVec3]], reach: f64, s: &mut FrameStats) -> Result<f64> {
-        let magnitude = |x: &[DVec3]| x.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
         let fresh = |c: &Candidates| {
             ends.iter()
                 .map(|x| c.allowance(reach, magnitude(x)))

@@ -8,7 +8,6 @@
 
 use super::Aabb;
 use glam::DVec3;
-use rayon::prelude::*;
 
 /// Relative slack of [`hulls_apart`], in units of the coordinates' magnitude:
 /// far above the rounding of the distance functions here.
@@ -47,15 +46,9 @@ pub struct HullCull {
 impl HullCull {
     /// The cull for pairs of points among `positions` closer than `gap`.
     pub fn new(gap: f64, positions: &[DVec3]) -> HullCull {
-        let size = |p: &DVec3| p.abs().max_element();
-        let magnitude = if positions.len() >= 1 << 14 {
-            positions.par_iter().map(size).reduce(|| 0.0, f64::max)
-        } else {
-            positions.iter().map(size).fold(0.0, f64::max)
-        };
         HullCull {
             gap,
-            reach: gap + APART_SLACK * magnitude,
+            reach: gap + APART_SLACK * super::magnitude(positions),
         }
     }
 

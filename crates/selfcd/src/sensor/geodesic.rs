@@ -159,18 +159,10 @@ mod tests {
     /// ([`super::super::odl`]).
     #[test]
     fn the_march_is_never_shorter_than_the_straight_line() {
-        use crate::scene::{tube, Deformation};
-        let (v, f) = grid(41, 1.0);
-        let flat = Mesh::new(v, f.clone()).unwrap();
-        let crumpled = Deformation::Crumple {
-            amplitude: 0.2,
-            wavelength: 0.5,
-            seed: 7,
-        }
-        .apply(flat.rest());
-        let crumpled = Mesh::new(crumpled.iter().map(|p| p.to_array()).collect(), f).unwrap();
+        use crate::scene::tube;
+        use crate::sensor::testing::crumpled_rest;
         let (v, f) = tube(24, 25, 0.2, 1.0);
-        for mesh in [crumpled, Mesh::new(v, f).unwrap()] {
+        for mesh in [crumpled_rest(41), Mesh::new(v, f).unwrap()] {
             let cut = 12.0 * mesh.mean_edge_length();
             let mut dist = Vec::new();
             for tri in (0..mesh.n_triangles() as u32).step_by(97) {

@@ -36,3 +36,22 @@ pub mod walk;
 pub use params::SensorParams;
 pub use particle::SurfacePoint;
 pub use relax::{ClosestPair, Relaxation, Sensor};
+
+#[cfg(test)]
+pub(crate) mod testing {
+    use crate::mesh::Mesh;
+    use crate::scene::{grid, Deformation};
+
+    /// An n x n sheet crumpled into its rest shape: curved everywhere.
+    pub fn crumpled_rest(n: usize) -> Mesh {
+        let (v, f) = grid(n, 1.0);
+        let flat = Mesh::new(v, f.clone()).unwrap();
+        let rest = Deformation::Crumple {
+            amplitude: 0.2,
+            wavelength: 0.5,
+            seed: 7,
+        }
+        .apply(flat.rest());
+        Mesh::new(rest.iter().map(|p| p.to_array()).collect(), f).unwrap()
+    }
+}

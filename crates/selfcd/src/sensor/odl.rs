@@ -389,26 +389,14 @@ impl OriginalDistance {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{grid, Deformation, SplitMix};
-
-    /// A crumpled sheet as the rest shape: curved everywhere.
-    fn crumpled_rest(n: usize) -> Arc<Mesh> {
-        let (v, f) = grid(n, 1.0);
-        let flat = Mesh::new(v, f.clone()).unwrap();
-        let rest = Deformation::Crumple {
-            amplitude: 0.2,
-            wavelength: 0.5,
-            seed: 7,
-        }
-        .apply(flat.rest());
-        Arc::new(Mesh::new(rest.iter().map(|p| p.to_array()).collect(), f).unwrap())
-    }
+    use crate::scene::SplitMix;
+    use crate::sensor::testing::crumpled_rest;
 
     /// Fields marched only where a path reads them give every path exactly as
     /// fields marched for every particle do, and particles far apart march none.
     #[test]
     fn lazy_fields_give_the_paths_of_eager_ones() {
-        let mesh = crumpled_rest(101);
+        let mesh = Arc::new(crumpled_rest(101));
         let mut rng = SplitMix::new(5);
         let points: Vec<SurfacePoint> = (0..12)
             .map(|_| SurfacePoint {
