@@ -19,6 +19,7 @@ pub mod detect;
 pub mod error;
 pub mod geom;
 pub mod mesh;
+pub(crate) mod prefetch;
 pub mod scene;
 pub mod sensor;
 pub mod stats;

@@ -10,6 +10,9 @@ use rayon::prelude::*;
 
 /// Below this many nodes a level is refitted on one thread.
 const PAR_MIN: usize = 4096;
+/// How many parents ahead [`Bvh::fit_up`] prefetches children: their ids
+/// are scattered on meshes whose triangle order is not a grid's.
+const AHEAD: usize = 8;
 
 impl Bvh {
     /// Refits every box and cone to `positions` (same vertex count as the mesh,
@@ -202,7 +205,13 @@ impl Bvh {
             // Children of this level all have ids below `lo`.
             let (done, rest) = values.split_at_mut(lo);
             let kids = &self.children[lo - n..hi - n];
-            let set = |(i, v): (usize, &mut T)| *v = fit(lo + i, kids[i], done);
+            let set = |(i, v): (usize, &mut T)| {
+                if let Some(&[a, b]) = kids.get(i + AHEAD) {
+                    crate::prefetch::prefetch(&done[a as usize]);
+                    crate::prefetch::prefetch(&done[b as usize]);
+                }
+                *v = fit(lo + i, kids[i], done)
+            };
             let out = &mut rest[..hi - lo];
             if hi - lo >= PAR_MIN {
                 out.par_iter_mut().enumerate().for_each(set);

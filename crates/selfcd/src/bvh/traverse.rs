@@ -27,6 +27,7 @@
 use super::certify::{BoxesOnly, ConeCull, ContourCull, Cull};
 use super::Bvh;
 use crate::mesh::Mesh;
+use crate::prefetch::prefetch;
 use crate::stats::Counters;
 use glam::DVec3;
 
@@ -257,6 +258,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                 }
                 Job::Pair(a, b, siblings) => {
                     if let Some((keep, [x, y])) = self.pair_step(a, b, siblings, acc) {
+                        prefetch(&self.bvh.boxes[y as usize]);
+                        prefetch(&self.bvh.boxes[x as usize]);
                         stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
                     }
                 }
