@@ -24,7 +24,11 @@ use rayon::prelude::*;
 pub fn build(mesh: &Mesh) -> Bvh {
     let n = mesh.n_triangles();
     let rest = mesh.rest();
-    let (mut boxes, mut cones): (Vec<Aabb>, Vec<NormalCone>) = (0..n)
+    // Room for every node from the start: growing past the leaves would
+    // copy them into freshly faulted memory.
+    let nodes = (2 * n).saturating_sub(1);
+    let (mut boxes, mut cones) = (Vec::with_capacity(nodes), Vec::with_capacity(nodes));
+    (0..n)
         .into_par_iter()
         .map(|t| {
             let c = mesh.corners(rest, t);
@@ -33,9 +37,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
                 NormalCone::of_triangle(c[0], c[1], c[2]),
             )
         })
-        .unzip();
-    boxes.reserve_exact(n.saturating_sub(1));
-    cones.reserve_exact(n.saturating_sub(1));
+        .unzip_into_vecs(&mut boxes, &mut cones);
     // The leaves' component tags (a serial union-find) alongside the leaves' patches.
     let ((mut patches, mut level), leaf_tags) = rayon::join(
         || rayon::join(|| PatchBuilder::leaves(mesh), || Level::leaves(mesh)),
