@@ -258,12 +258,25 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                 }
                 Job::Pair(a, b, siblings) => {
                     if let Some((keep, [x, y])) = self.pair_step(a, b, siblings, acc) {
-                        prefetch(&self.bvh.boxes[y as usize]);
-                        prefetch(&self.bvh.boxes[x as usize]);
+                        self.prefetch_node(y);
+                        self.prefetch_node(x);
                         stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
                     }
                 }
             }
+        }
+    }
+
+    /// Prefetches what a pair step on `n` reads first: its box, and its
+    /// children (internal) or triangle (leaf).
+    #[inline(always)]
+    fn prefetch_node(&self, n: u32) {
+        let bvh = self.bvh;
+        prefetch(&bvh.boxes[n as usize]);
+        if bvh.is_leaf(n) {
+            prefetch(&self.mesh.triangles()[n as usize]);
+        } else {
+            prefetch(&bvh.children[n as usize - bvh.n_leaves]);
         }
     }
 
