@@ -44,8 +44,8 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
-    collect_proximity, for_each_owned_pair, sorted_by_key, ElementPair, Intersect, Near, Proximity,
-    ProximityContacts, DEFAULT_MAX_CONTACTS,
+    collect_proximity, distance_below, for_each_owned_near, for_each_owned_pair, sorted_by_key,
+    ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
@@ -328,11 +328,8 @@ impl LeafVisitor for Gather<'_> {
             return; // the output guard: the build fails afterwards
         }
         let before = out.len();
-        for_each_owned_pair(self.mesh, a, b, |p| {
-            let p = p.canonical();
-            if let Some(d) = p.distance_within(self.mesh, self.x, &self.hulls) {
-                out.push((d, p));
-            }
+        for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
+            out.extend(distance_below(kind, &c, self.hulls.gap).map(|d| (d, p)))
         });
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);

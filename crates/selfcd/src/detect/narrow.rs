@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::geom::ccd::{distance2, StencilKind};
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2, HullCull};
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
+use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
 use glam::DVec3;
@@ -193,8 +194,10 @@ impl<'a> Proximity<'a> {
     }
 
     /// The contact of `pair` when it is closer than the thickness (incident
-    /// pairs never are). Every query path runs this same arithmetic, so cached
-    /// and fresh queries give bit-identical contacts.
+    /// pairs never are). Every query path runs this same arithmetic (the
+    /// hull cull, then `near_vt` or `near_ee`; [`for_each_owned_near`] culls
+    /// as `hulls.apart` does), so cached and fresh queries give bit-identical
+    /// contacts.
     pub(crate) fn test(&self, pair: ElementPair) -> Option<Near> {
         match pair {
             ElementPair::VertexTriangle(v, t) => self.vertex_triangle(v, t),
@@ -212,15 +215,7 @@ impl<'a> Proximity<'a> {
         if self.hulls.apart(&[p], &[a, b, c]) {
             return None;
         }
-        let (d2, bary) = point_triangle_distance2(p, a, b, c);
-        (d2 < self.thickness * self.thickness).then(|| {
-            Near::Vt(VertexTriangle {
-                vertex: v,
-                triangle: t,
-                distance: d2.sqrt(),
-                bary,
-            })
-        })
+        self.near_vt(v, t, &[p, a, b, c])
     }
 
     fn edge_edge(&self, e0: u32, e1: u32) -> Option<Near> {
@@ -235,7 +230,29 @@ impl<'a> Proximity<'a> {
         if self.hulls.apart(&[p(a), p(b)], &[p(c), p(d)]) {
             return None;
         }
-        let (d2, s, t) = segment_segment_distance2(p(a), p(b), p(c), p(d));
+        self.near_ee(e0, e1, &[p(a), p(b), p(c), p(d)])
+    }
+
+    /// The contact of vertex `v` and triangle `t` (stencil corners `c`: the
+    /// vertex, then the triangle's) when closer than the thickness.
+    #[inline]
+    fn near_vt(&self, vertex: u32, triangle: u32, c: &[DVec3; 4]) -> Option<Near> {
+        let (d2, bary) = point_triangle_distance2(c[0], c[1], c[2], c[3]);
+        (d2 < self.thickness * self.thickness).then(|| {
+            Near::Vt(VertexTriangle {
+                vertex,
+                triangle,
+                distance: d2.sqrt(),
+                bary,
+            })
+        })
+    }
+
+    /// The contact of edges `e0 < e1` (stencil corners `c`, each edge's
+    /// smaller vertex first) when closer than the thickness.
+    #[inline]
+    fn near_ee(&self, e0: u32, e1: u32, c: &[DVec3; 4]) -> Option<Near> {
+        let (d2, s, t) = segment_segment_distance2(c[0], c[1], c[2], c[3]);
         (d2 < self.thickness * self.thickness).then(|| {
             Near::Ee(EdgeEdge {
                 edges: [e0, e1],
@@ -255,7 +272,13 @@ impl LeafVisitor for Proximity<'_> {
             return; // the output guard: the query fails in check_output
         }
         let before = out.len();
-        for_each_owned_pair(self.mesh, a, b, |pair| out.extend(self.test(pair)));
+        let x = self.positions;
+        for_each_owned_near(self.mesh, x, &self.hulls, a, b, |pair, _, c| {
+            out.extend(match pair {
+                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, &c),
+                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, &c),
+            })
+        });
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);
         }
@@ -295,6 +318,91 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
                 topo.tri_edges[b][kb],
             ));
         }
+    }
+}
+
+/// The owned element pairs of triangles `a` and `b` that share no vertex and
+/// whose hulls at `x` the cull keeps, canonical, each with its stencil's kind
+/// and corners (in [`ElementPair::stencil`]'s order): exactly what
+/// [`for_each_owned_pair`] followed by `canonical`, `stencil` and
+/// [`HullCull::apart`] gives, in the same order, with each corner read and
+/// each box fitted once per triangle pair instead of once per element pair.
+pub fn for_each_owned_near(
+    mesh: &Mesh,
+    x: &[DVec3],
+    hulls: &HullCull,
+    a: u32,
+    b: u32,
+    mut f: impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
+) {
+    let topo = mesh.topology();
+    let (oa, ob) = (topo.owned[a as usize], topo.owned[b as usize]);
+    if (oa | ob) == 0 {
+        return;
+    }
+    let tris = mesh.triangles();
+    let (ta, tb) = (&tris[a as usize], &tris[b as usize]);
+    let (pa, pb) = (ta.map(|v| x[v as usize]), tb.map(|v| x[v as usize]));
+    owned_vertices_near(hulls, (ta, &pa, oa), (tb, &pb, b), &mut f);
+    owned_vertices_near(hulls, (tb, &pb, ob), (ta, &pa, a), &mut f);
+    if oa & 0o70 == 0 || ob & 0o70 == 0 {
+        return;
+    }
+    let (ea, eb) = (&topo.tri_edges[a as usize], &topo.tri_edges[b as usize]);
+    for ka in (0..3).filter(|k| oa & (8 << k) != 0) {
+        let (va, xa) = edge_of(ta, &pa, ka);
+        let hull = Aabb::from_points(&xa);
+        for kb in (0..3).filter(|k| ob & (8 << k) != 0) {
+            let (vb, xb) = edge_of(tb, &pb, kb);
+            let shared = va[0] == vb[0] || va[0] == vb[1] || va[1] == vb[0] || va[1] == vb[1];
+            if shared || hulls.boxes_apart(&hull, &Aabb::from_points(&xb)) {
+                continue;
+            }
+            let (e0, e1) = (ea[ka], eb[kb]);
+            let (pair, c) = if e0 <= e1 {
+                (ElementPair::EdgeEdge(e0, e1), [xa[0], xa[1], xb[0], xb[1]])
+            } else {
+                (ElementPair::EdgeEdge(e1, e0), [xb[0], xb[1], xa[0], xa[1]])
+            };
+            f(pair, StencilKind::EdgeEdge, c);
+        }
+    }
+}
+
+/// The vertex-triangle part of [`for_each_owned_near`]: the vertices of
+/// triangle `tv` (corners `pv`) that it owns, against triangle `t`.
+#[inline(always)]
+fn owned_vertices_near(
+    hulls: &HullCull,
+    (tv, pv, owned): (&[u32; 3], &[DVec3; 3], u8),
+    (tt, pt, t): (&[u32; 3], &[DVec3; 3], u32),
+    f: &mut impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
+) {
+    if owned & 7 == 0 {
+        return;
+    }
+    let hull = Aabb::from_points(pt);
+    for k in (0..3).filter(|k| owned & (1 << k) != 0) {
+        if !tt.contains(&tv[k]) && !hulls.boxes_apart(&Aabb::from_points(&[pv[k]]), &hull) {
+            let c = [pv[k], pt[0], pt[1], pt[2]];
+            f(
+                ElementPair::VertexTriangle(tv[k], t),
+                StencilKind::VertexTriangle,
+                c,
+            );
+        }
+    }
+}
+
+/// Edge `k` (corners k, k + 1) of a triangle with corners `p`, as the
+/// topology stores it: smaller vertex first.
+#[inline(always)]
+fn edge_of(t: &[u32; 3], p: &[DVec3; 3], k: usize) -> ([u32; 2], [DVec3; 2]) {
+    let (i, j) = (k, (k + 1) % 3);
+    if t[i] < t[j] {
+        ([t[i], t[j]], [p[i], p[j]])
+    } else {
+        ([t[j], t[i]], [p[j], p[i]])
     }
 }
 
@@ -353,9 +461,15 @@ impl ElementPair {
         if hulls.apart(first, second) {
             return None;
         }
-        let d2 = distance2(kind, &corners);
-        (d2 < hulls.gap * hulls.gap).then(|| d2.sqrt())
+        distance_below(kind, &corners, hulls.gap)
     }
+}
+
+/// The distance of a stencil with corners `c` when it is below `gap`.
+#[inline]
+pub fn distance_below(kind: StencilKind, c: &[DVec3; 4], gap: f64) -> Option<f64> {
+    let d2 = distance2(kind, c);
+    (d2 < gap * gap).then(|| d2.sqrt())
 }
 
 /// Sorts raw proximity contacts (each element pair is reported once, by its
@@ -422,6 +536,46 @@ mod tests {
     use super::*;
     use rand::{seq::SliceRandom, Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// The per-triangle-pair kernel gives exactly the pairs, in the order,
+    /// and with the corners of the per-element path, incident and culled
+    /// pairs included, on a crumpled sheet at several gaps (every triangle
+    /// pair, so pairs far apart and sharing vertices are both covered).
+    #[test]
+    fn owned_near_is_owned_pairs_stencils_and_hull_cull() {
+        let mesh = crate::sensor::testing::crumpled_rest(9);
+        let x = mesh.rest().to_vec();
+        let n = mesh.n_triangles() as u32;
+        for gap in [0.0, 0.02, 0.1, 0.5, f64::INFINITY] {
+            let hulls = HullCull::new(gap, &x);
+            let (mut kept, mut culled) = (0, 0);
+            for a in 0..n {
+                for b in (a + 1)..n {
+                    let mut slow = Vec::new();
+                    for_each_owned_pair(&mesh, a, b, |p| {
+                        let p = p.canonical();
+                        let Some((kind, ids)) = p.stencil(&mesh) else {
+                            return;
+                        };
+                        let c = ids.map(|i| x[i as usize]);
+                        let (first, second) = c.split_at(kind.split());
+                        if hulls.apart(first, second) {
+                            culled += 1;
+                        } else {
+                            slow.push((p, kind, c));
+                        }
+                    });
+                    let mut fast = Vec::new();
+                    for_each_owned_near(&mesh, &x, &hulls, a, b, |p, kind, c| {
+                        fast.push((p, kind, c))
+                    });
+                    kept += slow.len();
+                    assert_eq!(fast, slow, "triangles {a} and {b}, gap {gap}");
+                }
+            }
+            assert!(kept > 0 && (gap.is_infinite() || culled > 0), "gap {gap}");
+        }
+    }
 
     fn vt(vertex: u32, triangle: u32) -> Near {
         Near::Vt(VertexTriangle {

@@ -56,7 +56,13 @@ impl HullCull {
     /// cull was made for) are certainly farther apart than the gap.
     #[inline]
     pub fn apart(&self, a: &[DVec3], b: &[DVec3]) -> bool {
-        !Aabb::from_points(a).within(&Aabb::from_points(b), self.reach)
+        self.boxes_apart(&Aabb::from_points(a), &Aabb::from_points(b))
+    }
+
+    /// [`apart`](Self::apart) for hulls given by their boxes.
+    #[inline]
+    pub fn boxes_apart(&self, a: &Aabb, b: &Aabb) -> bool {
+        !a.within(b, self.reach)
     }
 }
 
