@@ -68,6 +68,9 @@ pub struct PartTree {
     /// Sampled triangles of coarse leaf `l`: `samples[offsets[l]..offsets[l + 1]]`.
     offsets: Vec<u32>,
     samples: Vec<u32>,
+    /// Vertices of every sampled triangle (copied from the mesh by the first
+    /// fit), so that a fit reads the positions without the triangle list.
+    sample_vertices: Vec<[u32; 3]>,
     /// Coarse leaf of every triangle.
     leaf_of_triangle: Vec<u32>,
     /// Sampled cone of every coarse node, as of the last [`PartTree::fit`].
@@ -121,6 +124,7 @@ impl PartTree {
                 .collect(),
             offsets: vec![0],
             samples: Vec::new(),
+            sample_vertices: Vec::new(),
             leaf_of_triangle: vec![0; bvh.n_leaves],
             cones: vec![NormalCone::FULL; n_coarse],
             seen: Vec::new(),
@@ -166,10 +170,14 @@ impl PartTree {
     /// the part nodes: the top-most coarse nodes whose cone is positive, or
     /// coarse leaves, in depth-first order (first child first).
     pub fn fit(&mut self, mesh: &Mesh, positions: &[DVec3]) -> Vec<u32> {
+        if self.sample_vertices.len() != self.samples.len() {
+            let tris = mesh.triangles();
+            self.sample_vertices = self.samples.iter().map(|&t| tris[t as usize]).collect();
+        }
         for l in 0..self.n_leaves {
-            self.moved[l] = self.leaf_moved(l, mesh, positions);
+            self.moved[l] = self.leaf_moved(l, positions);
             if self.moved[l] {
-                self.cones[l] = self.leaf_cone(l, mesh, positions);
+                self.cones[l] = self.leaf_cone(l, positions);
             }
         }
         for (i, &[a, b]) in self.children.iter().enumerate() {
@@ -184,27 +192,27 @@ impl PartTree {
 
     /// True when a corner of coarse leaf `l`'s samples is not where it was at
     /// the last fit, bit for bit (a signed zero changes a cone's bits too).
-    fn leaf_moved(&self, l: usize, mesh: &Mesh, positions: &[DVec3]) -> bool {
+    fn leaf_moved(&self, l: usize, positions: &[DVec3]) -> bool {
         let same = |a: DVec3, b: DVec3| {
             a.x.to_bits() == b.x.to_bits()
                 && a.y.to_bits() == b.y.to_bits()
                 && a.z.to_bits() == b.z.to_bits()
         };
         let range = self.offsets[l] as usize..self.offsets[l + 1] as usize;
-        self.samples[range.clone()]
+        self.sample_vertices[range.clone()]
             .iter()
             .zip(&self.seen[range])
-            .any(|(&t, seen)| {
-                let [a, b, c] = mesh.corners(positions, t as usize);
+            .any(|(vertices, seen)| {
+                let [a, b, c] = vertices.map(|v| positions[v as usize]);
                 !(same(a, seen[0]) && same(b, seen[1]) && same(c, seen[2]))
             })
     }
 
     /// The sampled cone of coarse leaf `l` at `positions`; keeps the samples' corners.
-    fn leaf_cone(&mut self, l: usize, mesh: &Mesh, positions: &[DVec3]) -> NormalCone {
+    fn leaf_cone(&mut self, l: usize, positions: &[DVec3]) -> NormalCone {
         let mut cone = None;
         for s in self.offsets[l] as usize..self.offsets[l + 1] as usize {
-            let [a, b, c] = mesh.corners(positions, self.samples[s] as usize);
+            let [a, b, c] = self.sample_vertices[s].map(|v| positions[v as usize]);
             self.seen[s] = [a, b, c];
             let t = NormalCone::of_triangle(a, b, c);
             cone = Some(cone.map_or(t, |x: NormalCone| x.merge(&t)));
