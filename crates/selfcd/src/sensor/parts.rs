@@ -259,14 +259,24 @@ impl PartTree {
     /// and normals.
     fn spread_cone(&mut self, range: Range<usize>, positions: &[DVec3]) -> NormalCone {
         let (mut sum, mut err, mut known) = (DVec3::ZERO, 0.0f64, true);
-        for s in range.clone() {
-            let [a, b, c] = self.sample_vertices[s].map(|v| positions[v as usize]);
-            self.seen[s] = [a, b, c];
+        let samples = self.sample_vertices[range.clone()]
+            .iter()
+            .zip(&mut self.seen[range.clone()])
+            .zip(&mut self.normals[range.clone()]);
+        for ((&[a, b, c], seen), normal) in samples {
+            let [a, b, c] = [
+                positions[a as usize],
+                positions[b as usize],
+                positions[c as usize],
+            ];
+            *seen = [a, b, c];
             match NormalCone::unit_normal(a, b, c) {
                 Some((n, e)) => {
-                    self.normals[s] = n;
+                    *normal = n;
                     sum += n;
-                    err = err.max(e);
+                    if e > err {
+                        err = e;
+                    }
                 }
                 None => known = false,
             }
