@@ -7,7 +7,7 @@
 //! The particle count follows the convex parts of the current shape
 //! ([`crate::sensor::parts`]): on every triggered frame, on a frame where the
 //! shape moved since the last count (a distance between the particles'
-//! surface points of that count changed by more than the trigger tolerance,
+//! surface points of that count shrank by more than the trigger tolerance,
 //! or their normals turned by about 30 degrees), and every [`RECOUNT`]
 //! frames, the parts are counted from sampled cones ([`PartTree`]: no refit;
 //! [`crate::sensor::parts::SAMPLES`] triangles read per coarse leaf); when the
@@ -87,12 +87,15 @@ impl Probes {
         })
     }
 
-    /// True when a chain pair came closer or parted by more than `limit`, or
-    /// its normals turned by more than [`TURN`], since the probes were made.
+    /// True when a chain pair came closer by more than `limit`, or its
+    /// normals turned by more than [`TURN`], since the probes were made. A
+    /// pair that only parted is not counted: the parts follow the normals,
+    /// and a stretch that does not turn them (a twist's pull on the sheet's
+    /// edges) leaves them; a fold or roll brings pairs closer or turns them.
     fn moved(&self, mesh: &Mesh, positions: &[DVec3], limit: f64) -> bool {
         self.pairs(mesh, positions)
             .zip(&self.then)
-            .any(|((d, c), &(d0, c0))| !((d - d0).abs() <= limit && (c - c0).abs() <= TURN))
+            .any(|((d, c), &(d0, c0))| !(d0 - d <= limit && (c - c0).abs() <= TURN))
     }
 }
 
@@ -313,6 +316,12 @@ mod tests {
             .collect();
         assert!(!probes.moved(&mesh, mesh.rest(), limit));
         assert!(!probes.moved(&mesh, &rigid, limit));
+        // An in-plane stretch parts every pair and turns no normal; a shrink
+        // brings them closer.
+        for (scale, moved) in [(1.5, false), (0.5, true)] {
+            let scaled: Vec<DVec3> = mesh.rest().iter().map(|&p| p * scale).collect();
+            assert_eq!(probes.moved(&mesh, &scaled, limit), moved, "scale {scale}");
+        }
         for (angle, moved) in [(0.1, false), (2.0, true)] {
             let folded = Deformation::Fold {
                 angle,
