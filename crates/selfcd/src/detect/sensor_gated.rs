@@ -222,14 +222,14 @@ impl SensorGatedDetector {
     }
 }
 
-/// True when every coordinate of `positions` is finite: `x - x` is 0 for a
-/// finite x and NaN for an infinite or NaN one, and a sum of zeros is 0 where
-/// one NaN makes it NaN. One branch-free pass, about half the instructions of
-/// [`Mesh::check_positions`]' test of each coordinate, which a quiet frame
-/// otherwise spends most of its non-sensor time on; that check still runs
-/// (and names the vertex) when this one fails.
+/// True when every coordinate of `positions` is finite: `0 x` is 0 (of either
+/// sign) for a finite x and NaN for an infinite or NaN one, and a sum of
+/// zeros is 0 where one NaN makes it NaN. One branch-free pass, about half
+/// the instructions of [`Mesh::check_positions`]' test of each coordinate,
+/// which a quiet frame otherwise spends most of its non-sensor time on; that
+/// check still runs (and names the vertex) when this one fails.
 fn all_finite(positions: &[DVec3]) -> bool {
-    let sum = positions.iter().fold(DVec3::ZERO, |sum, &p| sum + (p - p));
+    let sum = positions.iter().fold(DVec3::ZERO, |sum, &p| sum + p * 0.0);
     sum == DVec3::ZERO
 }
 
