@@ -7,7 +7,7 @@
 //! The particle count follows the convex parts of the current shape
 //! ([`crate::sensor::parts`]): on every triggered frame, on a frame where the
 //! shape moved since the last count (a distance between the particles'
-//! surface points of that count changed by more than the trigger tolerance,
+//! surface points of that count shrank by more than the trigger tolerance,
 //! or their normals turned by about 30 degrees), and every [`RECOUNT`]
 //! frames, the parts are counted from sampled cones ([`PartTree`]: no refit;
 //! [`crate::sensor::parts::SAMPLES`] triangles read per coarse leaf); when the
@@ -87,12 +87,15 @@ impl Probes {
         })
     }
 
-    /// True when a chain pair came closer or parted by more than `limit`, or
-    /// its normals turned by more than [`TURN`], since the probes were made.
+    /// True when a chain pair came closer by more than `limit`, or its
+    /// normals turned by more than [`TURN`], since the probes were made. A
+    /// pair that only parted is not counted: the parts follow the normals,
+    /// and a stretch that does not turn them (a twist's pull on the sheet's
+    /// edges) leaves them; a fold or roll brings pairs closer or turns them.
     fn moved(&self, mesh: &Mesh, positions: &[DVec3], limit: f64) -> bool {
         self.pairs(mesh, positions)
             .zip(&self.then)
-            .any(|((d, c), &(d0, c0))| !((d - d0).abs() <= limit && (c - c0).abs() <= TURN))
+            .any(|((d, c), &(d0, c0))| !(d0 - d <= limit && (c - c0).abs() <= TURN))
     }
 }
 
@@ -219,6 +222,17 @@ impl SensorGatedDetector {
     }
 }
 
+/// True when every coordinate of `positions` is finite: `0 x` is 0 (of either
+/// sign) for a finite x and NaN for an infinite or NaN one, and a sum of
+/// zeros is 0 where one NaN makes it NaN. One branch-free pass, about half
+/// the instructions of [`Mesh::check_positions`]' test of each coordinate,
+/// which a quiet frame otherwise spends most of its non-sensor time on; that
+/// check still runs (and names the vertex) when this one fails.
+fn all_finite(positions: &[DVec3]) -> bool {
+    let sum = positions.iter().fold(DVec3::ZERO, |sum, &p| sum + p * 0.0);
+    sum == DVec3::ZERO
+}
+
 /// Copies one frame's relaxation into the stats.
 fn write_sensor(s: &mut FrameStats, r: &Relaxation, seconds: f64) {
     s.sensor_time = seconds;
@@ -239,7 +253,9 @@ impl Detector for SensorGatedDetector {
     }
 
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
-        self.bvh.mesh().check_positions(positions)?;
+        if positions.len() != self.bvh.mesh().n_vertices() || !all_finite(positions) {
+            self.bvh.mesh().check_positions(positions)?;
+        }
         let timed_refit = |bvh: &mut BvhDetector| {
             let t0 = Instant::now();
             bvh.refit(positions);
@@ -295,6 +311,32 @@ mod tests {
     use crate::scene::{grid, Deformation};
     use glam::DQuat;
 
+    /// The gate refuses what `Mesh::check_positions` refuses, with its error:
+    /// an infinite or NaN coordinate anywhere, or a wrong vertex count.
+    #[test]
+    fn the_gate_refuses_non_finite_positions() {
+        let (v, f) = grid(11, 1.0);
+        let mesh = Arc::new(Mesh::new(v, f).unwrap());
+        let mut gate =
+            SensorGatedDetector::new(mesh.clone(), 0.01, &SensorParams::default()).unwrap();
+        assert!(all_finite(mesh.rest()));
+        assert!(gate.detect(mesh.rest()).is_ok());
+        for bad in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN, f64::MAX * 2.0] {
+            for (vertex, axis) in [(0, 0), (57, 1), (120, 2)] {
+                let mut p = mesh.rest().to_vec();
+                p[vertex][axis] = bad;
+                assert!(!all_finite(&p));
+                let err = gate.detect(&p).unwrap_err();
+                assert!(
+                    matches!(err, crate::error::Error::NonFinite { vertex: v, .. } if v == vertex),
+                    "{err}"
+                );
+            }
+        }
+        let short = &mesh.rest()[1..];
+        assert!(gate.detect(short).is_err());
+    }
+
     #[test]
     fn probes_ignore_rigid_motion_and_see_a_fold() {
         let (v, f) = grid(21, 1.0);
@@ -313,6 +355,12 @@ mod tests {
             .collect();
         assert!(!probes.moved(&mesh, mesh.rest(), limit));
         assert!(!probes.moved(&mesh, &rigid, limit));
+        // An in-plane stretch parts every pair and turns no normal; a shrink
+        // brings them closer.
+        for (scale, moved) in [(1.5, false), (0.5, true)] {
+            let scaled: Vec<DVec3> = mesh.rest().iter().map(|&p| p * scale).collect();
+            assert_eq!(probes.moved(&mesh, &scaled, limit), moved, "scale {scale}");
+        }
         for (angle, moved) in [(0.1, false), (2.0, true)] {
             let folded = Deformation::Fold {
                 angle,
