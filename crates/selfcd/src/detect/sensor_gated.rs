@@ -222,17 +222,6 @@ impl SensorGatedDetector {
     }
 }
 
-/// True when every coordinate of `positions` is finite: `0 x` is 0 (of either
-/// sign) for a finite x and NaN for an infinite or NaN one, and a sum of
-/// zeros is 0 where one NaN makes it NaN. One branch-free pass, about half
-/// the instructions of [`Mesh::check_positions`]' test of each coordinate,
-/// which a quiet frame otherwise spends most of its non-sensor time on; that
-/// check still runs (and names the vertex) when this one fails.
-fn all_finite(positions: &[DVec3]) -> bool {
-    let sum = positions.iter().fold(DVec3::ZERO, |sum, &p| sum + p * 0.0);
-    sum == DVec3::ZERO
-}
-
 /// Copies one frame's relaxation into the stats.
 fn write_sensor(s: &mut FrameStats, r: &Relaxation, seconds: f64) {
     s.sensor_time = seconds;
@@ -253,9 +242,7 @@ impl Detector for SensorGatedDetector {
     }
 
     fn detect(&mut self, positions: &[DVec3]) -> Result<Detection> {
-        if positions.len() != self.bvh.mesh().n_vertices() || !all_finite(positions) {
-            self.bvh.mesh().check_positions(positions)?;
-        }
+        self.bvh.mesh().check_positions(positions)?;
         let timed_refit = |bvh: &mut BvhDetector| {
             let t0 = Instant::now();
             bvh.refit(positions);
@@ -319,13 +306,11 @@ mod tests {
         let mesh = Arc::new(Mesh::new(v, f).unwrap());
         let mut gate =
             SensorGatedDetector::new(mesh.clone(), 0.01, &SensorParams::default()).unwrap();
-        assert!(all_finite(mesh.rest()));
         assert!(gate.detect(mesh.rest()).is_ok());
         for bad in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN, f64::MAX * 2.0] {
             for (vertex, axis) in [(0, 0), (57, 1), (120, 2)] {
                 let mut p = mesh.rest().to_vec();
                 p[vertex][axis] = bad;
-                assert!(!all_finite(&p));
                 let err = gate.detect(&p).unwrap_err();
                 assert!(
                     matches!(err, crate::error::Error::NonFinite { vertex: v, .. } if v == vertex),
