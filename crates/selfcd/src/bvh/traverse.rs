@@ -20,6 +20,10 @@
 //! their leaf pairs' boxes and `pair_culled` directly (siblings too), without
 //! the node pairs in between (most of a proximity query's node pairs lie there).
 //!
+//! A split prefetches what the next steps read first (each child's box and
+//! children, or triangle): node ids are scattered, and that load was the
+//! descent's largest single cost (`crate::prefetch`).
+//!
 //! Top levels run in parallel with `rayon::join`; each task keeps its own
 //! results, counters and cull buffers, and the join order is fixed, so the
 //! output is the same for any number of threads.

@@ -520,14 +520,19 @@ mod tests {
         }
     }
 
-    /// A fit after another recomputes only the leaves whose samples moved,
-    /// and gives the cones and parts of a fit from scratch.
-    #[test]
-    fn a_fit_after_a_fit_is_a_fit_from_scratch() {
-        let (v, f) = grid(41, 1.0);
+    /// Folds an n x n sheet three ways, fitting the parts of `leaf_size`
+    /// after each fold; checks that each fit after a fit recomputes only the
+    /// leaves that moved and gives the cones and parts of a fit from scratch,
+    /// then runs `check` on the tree and the folded positions.
+    fn check_incremental_fits(
+        n: usize,
+        leaf_size: usize,
+        check: impl Fn(&PartTree, &Mesh, &[DVec3]),
+    ) {
+        let (v, f) = grid(n, 1.0);
         let mesh = Mesh::new(v, f).unwrap();
         let bvh = build(&mesh);
-        let mut tree = PartTree::new(&bvh, 8);
+        let mut tree = PartTree::new(&bvh, leaf_size);
         tree.fit(&mesh, mesh.rest());
         for angle in [1.0, 2.5, 3.5] {
             let folded = Deformation::Fold {
@@ -538,10 +543,18 @@ mod tests {
             let parts = tree.fit(&mesh, &folded);
             let moved = tree.moved[..tree.n_leaves()].iter().filter(|&&m| m).count();
             assert!(0 < moved && moved < tree.n_leaves(), "{moved} leaves moved");
-            let mut fresh = PartTree::new(&bvh, 8);
+            let mut fresh = PartTree::new(&bvh, leaf_size);
             assert_eq!(fresh.fit(&mesh, &folded), parts, "fold {angle}");
             assert_eq!(fresh.cones, tree.cones, "fold {angle}");
+            check(&tree, &mesh, &folded);
         }
+    }
+
+    /// A fit after another recomputes only the leaves whose samples moved,
+    /// and gives the cones and parts of a fit from scratch.
+    #[test]
+    fn a_fit_after_a_fit_is_a_fit_from_scratch() {
+        check_incremental_fits(41, 8, |_, _, _| {});
     }
 
     /// Above [`SAMPLES`] triangles per coarse leaf the leaf cones are the
@@ -550,34 +563,18 @@ mod tests {
     /// gives the cones and parts of a fit from scratch.
     #[test]
     fn estimated_leaf_cones_hold_their_samples_and_refit_incrementally() {
-        let (v, f) = grid(61, 1.0);
-        let mesh = Mesh::new(v, f).unwrap();
-        let bvh = build(&mesh);
-        let mut tree = PartTree::new(&bvh, 40);
-        assert!(!tree.exact && tree.n_samples() < mesh.n_triangles());
-        tree.fit(&mesh, mesh.rest());
-        for angle in [1.0, 2.5, 3.5] {
-            let folded = Deformation::Fold {
-                angle,
-                radius: 0.05,
-            }
-            .apply(mesh.rest());
-            let parts = tree.fit(&mesh, &folded);
-            let moved = tree.moved[..tree.n_leaves()].iter().filter(|&&m| m).count();
-            assert!(0 < moved && moved < tree.n_leaves(), "{moved} leaves moved");
-            let mut fresh = PartTree::new(&bvh, 40);
-            assert_eq!(fresh.fit(&mesh, &folded), parts, "fold {angle}");
-            assert_eq!(fresh.cones, tree.cones, "fold {angle}");
+        check_incremental_fits(61, 40, |tree, mesh, folded| {
+            assert!(!tree.exact && tree.n_samples() < mesh.n_triangles());
             for l in 0..tree.n_leaves() {
                 let cone = tree.cones[l];
                 for &t in tree.leaf_samples(l) {
-                    let [a, b, c] = mesh.corners(&folded, t as usize);
+                    let [a, b, c] = mesh.corners(folded, t as usize);
                     let n = NormalCone::of_triangle(a, b, c);
                     let turn = cone.axis.dot(n.axis).clamp(-1.0, 1.0).acos();
-                    assert!(turn <= cone.half_angle(), "leaf {l}, fold {angle}");
+                    assert!(turn <= cone.half_angle(), "leaf {l}");
                 }
             }
-        }
+        });
     }
 
     fn under_node(tree: &PartTree, node: u32, mut c: u32) -> bool {
