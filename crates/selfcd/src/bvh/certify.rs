@@ -49,14 +49,15 @@ pub trait Cull: Sync {
     /// May the self-test of internal node `n` be skipped?
     fn self_culled(&self, n: u32, s: &mut Self::Scratch, c: &mut Counters) -> bool;
     /// May the pair test of disjoint nodes `a` and `b` (boxes overlapping,
-    /// not siblings, not both leaves unless [`Self::LEAF_BY_LEAF_WHEN_SMALL`])
-    /// be skipped?
+    /// not siblings, not both leaves) be skipped?
     fn pair_culled(&self, a: u32, b: u32, s: &mut Self::Scratch, c: &mut Counters) -> bool;
     /// When true, the traversal tests a small node (at most
     /// [`SMALL`](super::Bvh::SMALL) triangles), or a pair of them, leaf pair
-    /// by leaf pair, asking `pair_culled` about each leaf pair (siblings
-    /// included) instead of the nodes in between: for culls that are as cheap
-    /// on two leaves as on two nodes (boxes only, the motion cull).
+    /// by leaf pair, without asking about the nodes in between: for culls
+    /// that would cull none of them (boxes only). (The coherent queries'
+    /// motion cull keeps the descent: leaf by leaf, the pairs it would have
+    /// culled counted as fresh work and the candidate set was rebuilt more
+    /// often.)
     const LEAF_BY_LEAF_WHEN_SMALL: bool = false;
 }
 

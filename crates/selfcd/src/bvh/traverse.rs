@@ -17,8 +17,8 @@
 //!
 //! Where the cull allows ([`Cull::LEAF_BY_LEAF_WHEN_SMALL`]), the self-test of
 //! a node of at most [`Bvh::SMALL`] triangles, or the pair test of two, tests
-//! their leaf pairs' boxes and `pair_culled` directly (siblings too), without
-//! the node pairs in between (most of a proximity query's node pairs lie there).
+//! their leaf pairs directly, as the descent tests two leaves, without the
+//! node pairs in between (most of a proximity query's node pairs lie there).
 //!
 //! A split prefetches what the next steps read first (each child's box and
 //! children, or triangle): node ids are scattered, and that load was the
@@ -310,7 +310,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         );
     }
 
-    /// The leaf pairs of small node `n`, each tested as the descent would.
+    /// The leaf pairs of small node `n`, each tested as the descent tests
+    /// two leaves ([`leaf_boxes`](Self::leaf_boxes)).
     fn small_self(&self, n: u32, acc: &mut Acc<V::Item, C::Scratch>) {
         let mut leaves = [0; Bvh::SMALL];
         let k = self.bvh.small_leaves(n, &mut leaves);
@@ -321,7 +322,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
     }
 
-    /// The leaf pairs of small nodes `a` and `b`, each tested as the descent would.
+    /// The leaf pairs of small nodes `a` and `b`, each tested as the descent
+    /// tests two leaves.
     fn small_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
         let (mut la, mut lb) = ([0; Bvh::SMALL], [0; Bvh::SMALL]);
         let (ka, kb) = (
@@ -335,25 +337,28 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
     }
 
-    /// Leaves `a` and `b` as a pair job of the descent: boxes, slabs, then the test.
+    /// The first tests of every node pair, counted: do the boxes meet within
+    /// the gap and the slabs not rule the pair out?
     #[inline]
-    fn leaf_boxes(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+    fn may_meet(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) -> bool {
         acc.counters.node_pairs += 1;
         let boxes = &self.bvh.boxes;
         if !boxes[a as usize].within(&boxes[b as usize], self.gap) {
-            return;
+            return false;
         }
         if self.slabs_apart(a, b) {
             acc.counters.slab_culls += 1;
-            return;
+            return false;
         }
-        if self
-            .cull
-            .pair_culled(a, b, &mut acc.scratch, &mut acc.counters)
-        {
-            return;
+        true
+    }
+
+    /// Leaves `a` and `b` as the descent tests them: [`may_meet`](Self::may_meet), then the test.
+    #[inline]
+    fn leaf_boxes(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+        if self.may_meet(a, b, acc) {
+            self.leaf_pair(a, b, acc);
         }
-        self.leaf_pair(a, b, acc);
     }
 
     /// Are the nodes apart along `a`'s cone axis ([`crate::geom::Slab`]:
@@ -384,15 +389,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         acc: &mut Acc<V::Item, C::Scratch>,
     ) -> Option<(u32, [u32; 2])> {
         let bvh = self.bvh;
-        acc.counters.node_pairs += 1;
+        if !self.may_meet(a, b, acc) {
+            return None;
+        }
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
-        if !ba.within(bb, self.gap) {
-            return None;
-        }
-        if self.slabs_apart(a, b) {
-            acc.counters.slab_culls += 1;
-            return None;
-        }
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
         if la && lb {
             self.leaf_pair(a, b, acc);
