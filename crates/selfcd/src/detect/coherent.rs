@@ -517,10 +517,11 @@ impl SelfQueries {
         let t0 = Instant::now();
         let gap = reach + self.skin;
         let mesh = &*self.mesh;
+        let magnitude = magnitude(x);
         let gather = Gather {
             mesh,
             x,
-            hulls: HullCull::new(gap, x),
+            hulls: HullCull::at_magnitude(gap, magnitude),
             max: self.max_contacts,
             found: AtomicUsize::new(0),
         };
@@ -554,7 +555,6 @@ impl SelfQueries {
         );
         let (vertex_triangles, within) = (vt.len(), vt.len() + ee.len());
         let pairs = [vt, ee, skin].concat();
-        let magnitude = magnitude(x);
         self.candidates = Candidates {
             reference: x.to_vec(),
             reach,

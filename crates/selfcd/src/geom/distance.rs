@@ -46,9 +46,15 @@ pub struct HullCull {
 impl HullCull {
     /// The cull for pairs of points among `positions` closer than `gap`.
     pub fn new(gap: f64, positions: &[DVec3]) -> HullCull {
+        HullCull::at_magnitude(gap, super::magnitude(positions))
+    }
+
+    /// [`new`](Self::new) for positions whose largest coordinate magnitude
+    /// ([`super::magnitude`]) is already known.
+    pub fn at_magnitude(gap: f64, magnitude: f64) -> HullCull {
         HullCull {
             gap,
-            reach: gap + APART_SLACK * super::magnitude(positions),
+            reach: gap + APART_SLACK * magnitude,
         }
     }
 

@@ -172,7 +172,8 @@ pub fn forces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{grid, Deformation, SplitMix};
+    use crate::scene::{Deformation, SplitMix};
+    use crate::sensor::testing::grid_and_triangle;
     use std::sync::Arc;
 
     /// On a flat rest shape, the forces from unordered pairs are bit for bit
@@ -180,10 +181,7 @@ mod tests {
     /// a second component included.
     #[test]
     fn flat_forces_from_unordered_pairs_are_the_ordered_sums() {
-        let (mut v, mut f) = grid(21, 1.0);
-        let n = v.len() as u32;
-        v.extend([[2.0, 0.0, 0.0], [2.6, 0.0, 0.0], [2.0, 0.6, 0.0]]);
-        f.push([n, n + 1, n + 2]);
+        let (v, f) = grid_and_triangle(21, 2.0, 0.6);
         let mesh = Arc::new(Mesh::new(v, f).unwrap());
         let odl = OriginalDistance::new(mesh.clone());
         assert!(odl.is_flat());

@@ -133,15 +133,12 @@ fn planar_update(v: DVec3, dv: f64, u: DVec3, du: f64, w: DVec3) -> Option<f64> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::grid;
+    use crate::sensor::testing::grid_and_triangle;
 
     #[test]
     fn flat_grid_is_close_to_euclidean_and_other_components_are_unreached() {
-        let (mut v, mut f) = grid(21, 1.0);
-        let n = v.len() as u32;
-        // A second, separate triangle.
-        v.extend([[5., 0., 0.], [6., 0., 0.], [5., 1., 0.]]);
-        f.push([n, n + 1, n + 2]);
+        let (v, f) = grid_and_triangle(21, 5.0, 1.0);
+        let n = v.len() as u32 - 3;
         let mesh = Mesh::new(v, f).unwrap();
         let src = SurfacePoint::centroid(0);
         let mut dist = Vec::new();

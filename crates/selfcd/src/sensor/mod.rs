@@ -42,6 +42,17 @@ pub(crate) mod testing {
     use crate::mesh::Mesh;
     use crate::scene::{grid, Deformation};
 
+    /// An n x n unit grid and, apart from it, one right triangle with its
+    /// right angle at (x, 0, 0) and legs of `size`: two components, the
+    /// triangle's vertices last.
+    pub fn grid_and_triangle(n: usize, x: f64, size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let (mut v, mut f) = grid(n, 1.0);
+        let k = v.len() as u32;
+        v.extend([[x, 0.0, 0.0], [x + size, 0.0, 0.0], [x, size, 0.0]]);
+        f.push([k, k + 1, k + 2]);
+        (v, f)
+    }
+
     /// An n x n sheet crumpled into its rest shape: curved everywhere.
     pub fn crumpled_rest(n: usize) -> Mesh {
         let (v, f) = grid(n, 1.0);

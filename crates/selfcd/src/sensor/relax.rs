@@ -217,8 +217,9 @@ impl Sensor {
         let n_comp = self
             .points
             .iter()
-            .map(|p| comp[p.tri as usize] as usize + 1);
-        let mut per_comp = vec![0usize; n_comp.max().unwrap_or(0)];
+            .map(|p| comp[p.tri as usize] as usize + 1)
+            .max();
+        let mut per_comp = vec![0usize; n_comp.unwrap_or(0)];
         for p in &self.points {
             per_comp[comp[p.tri as usize] as usize] += 1;
         }
