@@ -33,8 +33,9 @@ use super::kept::{key, Reuse};
 use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
-    loops_meet_only_where_shared, simple_ccw_loop, simple_ccw_loop_slack, star_about, star_slack,
-    swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
+    loops_meet_only_where_shared, loops_meet_only_where_shared_slack, simple_ccw_loop,
+    simple_ccw_loop_slack, star_about, star_slack, swept_simple_ccw_loop, swept_star_about,
+    LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -170,7 +171,8 @@ impl<'a> ContourCull<'a> {
     }
 
     /// The projected contour of a disk-like patch is one simple counter-clockwise
-    /// loop: the star test about `center` first, the exact loop test if that fails.
+    /// loop: the star test about `center` first, the exact loop test if that
+    /// fails. The projection is left in `segs`.
     fn disk_is_height_field(
         &self,
         contour: &[u32],
@@ -190,12 +192,13 @@ impl<'a> ContourCull<'a> {
     fn disk_slack(
         &self,
         contour: &[u32],
-        plane: &Plane,
+        (plane, center): (&Plane, [f64; 2]),
         cap: f64,
-        s: &mut ContourScratch,
+        segs: &mut Vec<Seg>,
+        loops: &mut LoopScratch,
     ) -> Option<f64> {
-        project_contour(self.mesh, self.positions, contour, plane, &mut s.segs);
-        star_slack(&s.segs, [0.0; 2]).or_else(|| simple_ccw_loop_slack(&s.segs, &mut s.loops, cap))
+        project_contour(self.mesh, self.positions, contour, plane, segs);
+        star_slack(segs, center).or_else(|| simple_ccw_loop_slack(segs, loops, cap))
     }
 
     /// A kept certificate of node `a` (`a == b`) or of the union of `a` and
@@ -218,18 +221,22 @@ impl<'a> ContourCull<'a> {
         (axis, plane): (DVec3, &Plane),
         s: &mut ContourScratch,
     ) -> bool {
-        let slack = self.disk_slack(contour, plane, r.cap(), s);
-        if let Some(slack) = slack {
-            r.put(key(a, b), axis, slack, r.spread(a, b));
-        }
-        slack.is_some()
+        let slack = self.disk_slack(
+            contour,
+            (plane, [0.0; 2]),
+            r.cap(),
+            &mut s.segs,
+            &mut s.loops,
+        );
+        r.record(key(a, b), axis, slack, r.spread(a, b))
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
     /// `axis`? When they share edges the union is a disk (Euler characteristic
     /// 1, no conflicting edge) and its contour gets the node test; when they
     /// touch only at vertices each patch's loop must be simple and the two
-    /// loops meet only where the patches do.
+    /// loops meet only where the patches do. With kept certificates, the
+    /// answer is recorded with its slack.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
         let Some(glued) = union_disk(p, a, b, &mut s.merged) else {
@@ -239,24 +246,38 @@ impl<'a> ContourCull<'a> {
         let plane = Plane::new(axis, box_a.union(box_b).center());
         if glued {
             // Patches glued along edges: the union is one disk, tested as a node is.
-            if let Some(r) = self.reuse {
-                let merged = std::mem::take(&mut s.merged);
-                let ok = self.certify_disk(r, (a, b), &merged, (axis, &plane), s);
-                s.merged = merged;
-                return ok;
-            }
-            return self.disk_is_height_field(
-                &s.merged,
-                &plane,
-                [0.0; 2],
-                &mut s.segs,
-                &mut s.loops,
-            );
+            let merged = std::mem::take(&mut s.merged);
+            let ok = match self.reuse {
+                Some(r) => self.certify_disk(r, (a, b), &merged, (axis, &plane), s),
+                None => {
+                    self.disk_is_height_field(&merged, &plane, [0.0; 2], &mut s.segs, &mut s.loops)
+                }
+            };
+            s.merged = merged;
+            return ok;
         }
         let (ca, cb) = (plane.project(box_a.center()), plane.project(box_b.center()));
-        self.disk_is_height_field(p.contour_of(a), &plane, ca, &mut s.segs, &mut s.loops)
-            && self.disk_is_height_field(p.contour_of(b), &plane, cb, &mut s.segs_b, &mut s.loops)
-            && loops_meet_only_where_shared(&s.segs, &s.segs_b, &mut s.loops)
+        let ContourScratch {
+            segs,
+            segs_b,
+            loops,
+            ..
+        } = s;
+        let (ka, kb) = (p.contour_of(a), p.contour_of(b));
+        let Some(r) = self.reuse else {
+            return self.disk_is_height_field(ka, &plane, ca, segs, loops)
+                && self.disk_is_height_field(kb, &plane, cb, segs_b, loops)
+                && loops_meet_only_where_shared(segs, segs_b, loops);
+        };
+        let cap = r.cap();
+        let slack = self
+            .disk_slack(ka, (&plane, ca), cap, segs, loops)
+            .and_then(|sa| {
+                let sb = self.disk_slack(kb, (&plane, cb), cap, segs_b, loops)?;
+                let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
+                Some(sa.min(sb).min(sab))
+            });
+        r.record(key(a, b), axis, slack, r.spread(a, b))
     }
 }
 

@@ -232,8 +232,12 @@ impl Reuse<'_> {
         self.kept.get(&key).copied().filter(|k| h <= k.slack)
     }
 
-    /// Records a certificate made this frame at spread `h` with slack `slack`.
-    pub fn put(&self, key: u64, axis: DVec3, slack: f64, h: f64) {
+    /// Records a certificate made this frame at spread `h` with slack
+    /// `slack` (None: no certificate); returns whether there is one.
+    pub fn record(&self, key: u64, axis: DVec3, slack: Option<f64>, h: f64) -> bool {
+        let Some(slack) = slack else {
+            return false;
+        };
         let left = slack - h;
         if left > 0.0 {
             let kept = Kept { axis, slack: left };
@@ -242,6 +246,7 @@ impl Reuse<'_> {
                 .unwrap_or_else(|e| e.into_inner())
                 .push((key, kept));
         }
+        true
     }
 
     /// The certificates made this frame.
