@@ -63,6 +63,32 @@ def test_weld_makes_a_soup_a_mesh() -> None:
         selfcd.Mesh(sv, sf, weld="no")
 
 
+def test_the_engine_screens_positions_and_the_warning_is_unchanged() -> None:
+    """The engine's screen passes distinct positions (no exact grouping, no warning) and flags
+    repeats; the warning then comes from the exact check, also before an engine error."""
+    v, f = np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64)
+    assert not selfcd._core.Mesh(v, f, screen_positions=True).may_repeat_positions
+    assert selfcd._core.Mesh(v, f).may_repeat_positions  # not screened: may repeat
+    sv, sf = _soup(V, F)
+    assert selfcd._core.Mesh(sv, sf, screen_positions=True).may_repeat_positions
+    signed = v.copy()
+    signed[-1] = -v[0]  # opposite corners, both at the origin (-0.0 is 0.0)
+    assert np.signbit(signed[-1]).all() and not np.signbit(v[0]).any()
+    assert selfcd._core.Mesh(signed, f, screen_positions=True).may_repeat_positions
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        selfcd.Mesh(V, F)
+        selfcd.self_intersections(V, F)
+    with pytest.warns(UnweldedMeshWarning, match="1 of"):
+        selfcd.Mesh(signed, f)
+    collapsed = np.vstack([V, [[0.5, 0.5, 0.0]] * 3])  # one point face: its corners may coincide
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        selfcd.Mesh(collapsed, np.vstack([F, [[len(V), len(V) + 1, len(V) + 2]]]))
+    with pytest.warns(UnweldedMeshWarning), pytest.raises(ValueError, match="same vertices"):
+        selfcd.Mesh(sv, np.vstack([sf, sf[:1]]))  # a soup with a duplicate face: warned, then refused
+
+
 def test_weld_keeps_collapsed_corners_distinct() -> None:
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [-0.0, 0, 0], [0.0, 0, 0]], dtype=float)
     f = np.array([[0, 1, 2], [3, 4, 5]])

@@ -67,7 +67,18 @@ class Mesh:
             self._n_input = len(v)
             v, f, self._source = _weld.weld(v, f)
         elif not weld:
-            _weld.warn_if_unwelded(v, f)
+            # The engine screens the positions while it validates the mesh; the
+            # exact check runs only where some may repeat (or before an error,
+            # which it preceded when it ran first).
+            try:
+                inner = _core.Mesh(v, f, screen_positions=True)
+            except Exception:
+                _weld.warn_if_unwelded(v, f)
+                raise
+            if inner.may_repeat_positions:
+                _weld.warn_if_unwelded(v, f)
+            self._inner = inner
+            return
         self._inner = _core.Mesh(v, f)
 
     def _positions(self, value: npt.ArrayLike, name: str = "positions") -> np.ndarray:
@@ -292,7 +303,7 @@ def self_intersections(vertices: npt.ArrayLike, faces: npt.ArrayLike,
     mesh, ids = _query_mesh(vertices, faces, subset, weld)
     if mesh is None:
         return np.zeros((0, 2), dtype=np.int64)
-    pairs = _core.self_intersections(mesh._inner, mesh._positions(vertices, "vertices"))
+    pairs = _core.self_intersections(mesh._inner)  # at the mesh's rest shape: `vertices` (welded if asked)
     return pairs if ids is None else ids[pairs]
 
 
@@ -331,7 +342,7 @@ def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
     numbering).
     """
     mesh, ids = _query_mesh(vertices, faces, subset, weld)
-    pair = None if mesh is None else _core.first_intersection(mesh._inner, mesh._positions(vertices, "vertices"))
+    pair = None if mesh is None else _core.first_intersection(mesh._inner)  # at the rest shape, `vertices`
     if pair is None:
         return None
     a, b = pair

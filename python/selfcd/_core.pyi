@@ -20,8 +20,12 @@ def sensor_options() -> list[str]:
 class Mesh:
     """A validated triangle mesh: rest positions, faces, topology."""
 
-    def __new__(cls, vertices: np.ndarray, faces: np.ndarray) -> Mesh:
-        """Validates an (n,3) float64 vertex array and an (m,3) int64 face array."""
+    def __new__(cls, vertices: np.ndarray, faces: np.ndarray, screen_positions: bool = False) -> Mesh:
+        """Validates an (n,3) float64 vertex array and an (m,3) int64 face array; with
+        `screen_positions`, also screens the vertices for repeated positions."""
+    @property
+    def may_repeat_positions(self) -> bool:
+        """False only when screened and every position is distinct (welding would merge nothing)."""
     @property
     def vertices(self) -> np.ndarray:
         """Rest positions, (n,3) float64."""
@@ -91,11 +95,12 @@ class SelfQueries:
 def position_groups(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(group id per vertex, first vertex per group), int64: exactly equal positions, first-occurrence order."""
 
-def self_intersections(mesh: Mesh, positions: np.ndarray) -> np.ndarray:
-    """Exact intersecting face pairs, (k,2) int64, sorted, i<j."""
+def self_intersections(mesh: Mesh, positions: np.ndarray | None = None) -> np.ndarray:
+    """Exact intersecting face pairs at `positions` (default: the rest shape), (k,2) int64, sorted, i<j."""
 
-def first_intersection(mesh: Mesh, positions: np.ndarray) -> tuple[int, int] | None:
-    """Some intersecting non-adjacent face pair (i, j), i < j, or None; stops at the first found."""
+def first_intersection(mesh: Mesh, positions: np.ndarray | None = None) -> tuple[int, int] | None:
+    """Some intersecting non-adjacent face pair (i, j), i < j, or None (at `positions`, default the rest
+    shape); stops at the first found."""
 
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, thickness: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""

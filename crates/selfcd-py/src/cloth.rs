@@ -325,9 +325,7 @@ impl PySimulation {
     /// The cloth's mesh (rest shape and faces).
     #[getter]
     fn mesh(&self) -> PyResult<PyMesh> {
-        Ok(PyMesh {
-            inner: self.lock()?.cloth().mesh().clone(),
-        })
+        Ok(PyMesh::wrap(self.lock()?.cloth().mesh().clone()))
     }
 
     /// Which vertices are pinned, (n,) bool.

@@ -1,12 +1,12 @@
 //! `Mesh`: a validated triangle mesh shared by detectors.
 
 use crate::contacts::impacts_dict;
-use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
+use crate::convert::{pairs_array, points, points_array, rows_array, triangles};
 use crate::errors::guard;
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use selfcd::Mesh;
+use selfcd::{DVec3, Mesh};
 use std::sync::Arc;
 
 /// A triangle mesh: rest positions, faces and topology, validated once.
@@ -14,23 +14,55 @@ use std::sync::Arc;
 pub struct PyMesh {
     /// The engine mesh, shared with every detector built on it.
     pub inner: Arc<Mesh>,
+    /// False when the vertices were screened and all lie at distinct positions.
+    may_repeat: bool,
+}
+
+impl PyMesh {
+    /// A wrapper around an engine mesh that is already validated (not
+    /// screened: `may_repeat_positions` is true).
+    pub fn wrap(inner: Arc<Mesh>) -> PyMesh {
+        PyMesh {
+            inner,
+            may_repeat: true,
+        }
+    }
 }
 
 #[pymethods]
 impl PyMesh {
     /// Validates an (n,3) float64 vertex array and an (m,3) int64 face array.
+    /// With `screen_positions`, also screens the vertices for repeated
+    /// positions (see `may_repeat_positions`).
     #[new]
+    #[pyo3(signature = (vertices, faces, screen_positions=false))]
     fn new(
         py: Python<'_>,
         vertices: PyReadonlyArray2<'_, f64>,
         faces: PyReadonlyArray2<'_, i64>,
+        screen_positions: bool,
     ) -> PyResult<Self> {
-        let v = triples(&vertices, "vertices")?;
+        let v = points(&vertices, "vertices")?;
         let f = triangles(&faces)?;
-        let mesh = py.detach(|| guard("Mesh()", || Mesh::new(v, f)))?;
+        let (mesh, may_repeat) = py.detach(|| {
+            let repeats = !screen_positions || selfcd::weld::may_repeat_positions(&v);
+            // In place: `DVec3` and `[f64; 3]` have one layout.
+            let v = v.into_iter().map(|p| p.to_array()).collect();
+            (guard("Mesh()", || Mesh::new(v, f)), repeats)
+        });
         Ok(PyMesh {
-            inner: Arc::new(mesh),
+            inner: Arc::new(mesh?),
+            may_repeat,
         })
+    }
+
+    /// False only when the constructor screened the vertices
+    /// (`screen_positions=True`) and found every position distinct, so that
+    /// welding would merge nothing; true otherwise (some positions may repeat:
+    /// the exact grouping, `position_groups`, decides).
+    #[getter]
+    fn may_repeat_positions(&self) -> bool {
+        self.may_repeat
     }
 
     /// Rest positions, (n,3) float64 (a copy).
@@ -91,32 +123,45 @@ pub fn position_groups<'py>(
     Ok((ids(&g.group), ids(&g.first)))
 }
 
-/// One-shot exact query: intersecting non-adjacent face pairs of `mesh` at `positions`.
+/// `positions` as points, or None for the mesh's rest shape (no copy).
+fn positions_or_rest(positions: Option<PyReadonlyArray2<'_, f64>>) -> PyResult<Option<Vec<DVec3>>> {
+    positions.map(|p| points(&p, "positions")).transpose()
+}
+
+/// One-shot exact query: intersecting non-adjacent face pairs of `mesh` at
+/// `positions` (None: at its rest shape).
 #[pyfunction]
+#[pyo3(signature = (mesh, positions=None))]
 pub fn self_intersections<'py>(
     py: Python<'py>,
     mesh: &PyMesh,
-    positions: PyReadonlyArray2<'_, f64>,
+    positions: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = points(&positions, "positions")?;
+    let p = positions_or_rest(positions)?;
     let m = mesh.inner.clone();
-    let pairs = py.detach(|| guard("self_intersections", || selfcd::self_intersections(&m, &p)))?;
+    let pairs = py.detach(|| {
+        let at = p.as_deref().unwrap_or(m.rest());
+        guard("self_intersections", || selfcd::self_intersections(&m, at))
+    })?;
     pairs_array(py, &pairs)
 }
 
 /// Early-exit query: some intersecting non-adjacent face pair `(i, j)`, i < j,
-/// or None; stops the traversal at the first one found.
+/// or None; stops the traversal at the first one found. `positions` as in
+/// [`self_intersections`].
 #[pyfunction]
+#[pyo3(signature = (mesh, positions=None))]
 pub fn first_intersection(
+    py: Python<'_>,
     mesh: &PyMesh,
-    positions: PyReadonlyArray2<'_, f64>,
+    positions: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Option<(u32, u32)>> {
-    let p = points(&positions, "positions")?;
+    let p = positions_or_rest(positions)?;
     let m = mesh.inner.clone();
-    let py = positions.py();
     let pair = py.detach(|| {
+        let at = p.as_deref().unwrap_or(m.rest());
         guard("first_intersection", || {
-            selfcd::detect::first::first_intersection(&m, &p)
+            selfcd::detect::first::first_intersection(&m, at)
         })
     })?;
     Ok(pair.map(|[a, b]| (a, b)))

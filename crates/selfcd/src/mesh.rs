@@ -236,7 +236,8 @@ impl Mesh {
         if triangles.is_empty() {
             return Err(Error::EmptyMesh("no triangles"));
         }
-        let rest: Vec<DVec3> = vertices.iter().map(|v| DVec3::from_array(*v)).collect();
+        // In place: `[f64; 3]` and `DVec3` have one layout, so no new buffer.
+        let rest: Vec<DVec3> = vertices.into_iter().map(DVec3::from_array).collect();
         check_finite(&rest)?;
         let n = rest.len();
         let invalid = |t: &[u32; 3]| {
@@ -288,8 +289,18 @@ impl Mesh {
         self.mean_edge
     }
 
-    /// Checks that `positions` fit this mesh: right length, all finite.
+    /// True when `positions` are the rest shape: the rest slice itself (known
+    /// without reading it) or an equal one.
+    pub fn is_rest(&self, positions: &[DVec3]) -> bool {
+        std::ptr::eq(positions, self.rest.as_slice()) || positions == self.rest
+    }
+
+    /// Checks that `positions` fit this mesh: right length, all finite (the
+    /// rest slice itself was checked at construction).
     pub fn check_positions(&self, positions: &[DVec3]) -> Result<()> {
+        if std::ptr::eq(positions, self.rest.as_slice()) {
+            return Ok(());
+        }
         if positions.len() != self.rest.len() {
             return Err(Error::PositionsLength {
                 expected: self.rest.len(),

@@ -29,7 +29,7 @@ const SELF: u32 = u32::MAX;
 pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Result<Option<[u32; 2]>> {
     mesh.check_positions(positions)?;
     let mut bvh = build(mesh);
-    if positions != mesh.rest() {
+    if !mesh.is_rest(positions) {
         bvh.refit(mesh, positions);
     }
     Ok(search(&bvh, mesh, positions))

@@ -184,7 +184,7 @@ pub fn new_detector(
 pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[u32; 2]>> {
     mesh.check_positions(positions)?;
     let mut d = hierarchy::BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
-    if positions != mesh.rest() {
+    if !mesh.is_rest(positions) {
         d.refit(positions);
     }
     Ok(d.traverse(positions)?.pairs)
