@@ -39,6 +39,32 @@ impl Csr {
         Csr { offsets, items }
     }
 
+    /// The inverse of a map from items to three rows each: row `r` lists
+    /// every `t` with `r` in `triples[t]`, in increasing order (once per
+    /// occurrence). Equal to [`from_pairs`](Self::from_pairs) over the pairs
+    /// `(triples[t][k], t)` in order, in two tight passes (a counting sort).
+    pub fn from_triples(rows: usize, triples: &[[u32; 3]]) -> Csr {
+        let mut offsets = vec![0u32; rows + 1];
+        for x in triples {
+            for &r in x {
+                offsets[r as usize + 1] += 1;
+            }
+        }
+        for i in 0..rows {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets[..rows].to_vec();
+        let mut items = vec![0u32; 3 * triples.len()];
+        for (t, x) in triples.iter().enumerate() {
+            for &r in x {
+                let at = &mut fill[r as usize];
+                items[*at as usize] = t as u32;
+                *at += 1;
+            }
+        }
+        Csr { offsets, items }
+    }
+
     /// The items of row `i`.
     #[inline]
     pub fn row(&self, i: usize) -> &[u32] {
@@ -76,30 +102,15 @@ impl Topology {
     /// triangles in increasing order. O(n): half-edges are bucketed by their
     /// smaller vertex (a counting sort), so no hashing and no global sort.
     pub fn new(n_vertices: usize, tris: &[[u32; 3]]) -> Topology {
-        let rows = |rows: usize, items: &[[u32; 3]]| {
-            let pairs = items.iter().enumerate();
-            Csr::from_pairs(
-                rows,
-                pairs.flat_map(|(t, x)| x.iter().map(move |&x| (x, t as u32))),
-            )
-        };
         let ((edges, tri_edges, edge_tris), vertex_tris) = rayon::join(
             || {
                 let (edges, tri_edges) = unique_edges(n_vertices, tris);
-                let edge_tris = rows(edges.len(), &tri_edges);
+                let edge_tris = Csr::from_triples(edges.len(), &tri_edges);
                 (edges, tri_edges, edge_tris)
             },
-            || rows(n_vertices, tris),
+            || Csr::from_triples(n_vertices, tris),
         );
-        let owned = (0..tris.len())
-            .into_par_iter()
-            .map(|t| {
-                let first = |row: &[u32]| row[0] as usize == t;
-                let vertices = (0..3).filter(|&k| first(vertex_tris.row(tris[t][k] as usize)));
-                let sides = (0..3).filter(|&k| first(edge_tris.row(tri_edges[t][k] as usize)));
-                vertices.map(|k| 1u8 << k).sum::<u8>() + sides.map(|k| 8u8 << k).sum::<u8>()
-            })
-            .collect();
+        let owned = owners(tris, &tri_edges, &vertex_tris, &edge_tris);
         Topology {
             edges,
             tri_edges,
@@ -124,17 +135,25 @@ impl Topology {
             let v = tris[t as usize];
             v[0] as u64 + v[1] as u64 + v[2] as u64 - a as u64 - b as u64
         };
-        (0..self.edges.len())
+        let offsets = &self.edge_tris.offsets;
+        // Edges in fixed chunks, each scanned by a plain loop (most rows hold
+        // one or two triangles, too little work for a parallel task each).
+        (0..self.edges.len().div_ceil(EDGE_CHUNK))
             .into_par_iter()
-            .filter_map(|e| {
-                let (row, ends) = (self.edge_tris.row(e), self.edges[e]);
-                // Rows are increasing, so (tj, ti) is (second, first).
+            .filter_map(|c| {
                 let mut best: Option<(usize, usize)> = None;
-                for (j, &tj) in row.iter().enumerate().skip(1) {
-                    for &ti in &row[..j] {
-                        let key = (tj as usize, ti as usize);
-                        if third(ti, ends) == third(tj, ends) && best.is_none_or(|b| key < b) {
-                            best = Some(key);
+                for e in c * EDGE_CHUNK..((c + 1) * EDGE_CHUNK).min(self.edges.len()) {
+                    if offsets[e + 1] - offsets[e] < 2 {
+                        continue;
+                    }
+                    let (row, ends) = (self.edge_tris.row(e), self.edges[e]);
+                    // Rows are increasing, so (tj, ti) is (second, first).
+                    for (j, &tj) in row.iter().enumerate().skip(1) {
+                        for &ti in &row[..j] {
+                            let key = (tj as usize, ti as usize);
+                            if third(ti, ends) == third(tj, ends) && best.is_none_or(|b| key < b) {
+                                best = Some(key);
+                            }
                         }
                     }
                 }
@@ -145,32 +164,62 @@ impl Topology {
     }
 }
 
+/// Edges per parallel task of [`Topology::first_duplicate`].
+const EDGE_CHUNK: usize = 4096;
+
+/// [`Topology::owned`]: each vertex and edge is owned by the first triangle
+/// of its row, so one pass over the rows marks them (a scatter, O(vertices +
+/// edges), instead of asking every triangle about its six elements).
+fn owners(
+    tris: &[[u32; 3]],
+    tri_edges: &[[u32; 3]],
+    vertex_tris: &Csr,
+    edge_tris: &Csr,
+) -> Vec<u8> {
+    let mut owned = vec![0u8; tris.len()];
+    let mut mark = |rows: &Csr, of: &[[u32; 3]], bit: u8| {
+        for r in 0..rows.rows() {
+            if let Some(&t) = rows.row(r).first() {
+                let k = of[t as usize].iter().position(|&x| x as usize == r);
+                owned[t as usize] |= bit << k.unwrap_or(0);
+            }
+        }
+    };
+    mark(vertex_tris, tris, 1);
+    mark(edge_tris, tri_edges, 8);
+    owned
+}
+
 /// Unique undirected edges (smaller vertex first), numbered in order of first
 /// appearance, and each triangle's edge ids.
 fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u32; 3]>) {
-    let sides = || {
-        tris.iter().enumerate().flat_map(|(t, v)| {
-            (0..3).map(move |k| {
-                let (a, b) = (v[k], v[(k + 1) % 3]);
-                (3 * t as u32 + k as u32, a.min(b), a.max(b))
-            })
-        })
-    };
+    /// The ends of side k of triangle `v`, smaller first.
+    #[inline]
+    fn side(v: &[u32; 3], k: usize) -> (u32, u32) {
+        let (a, b) = (v[k], v[if k == 2 { 0 } else { k + 1 }]);
+        (a.min(b), a.max(b))
+    }
     // Counting sort of the half-edges by their smaller vertex, each stored
-    // as `larger vertex << 32 | half-edge index`.
+    // as `larger vertex << 32 | half-edge index` (half-edge 3 t + k is side
+    // k of triangle t).
     let mut start = vec![0u32; n_vertices + 1];
-    for (_, lo, _) in sides() {
-        start[lo as usize + 1] += 1;
+    for v in tris {
+        for k in 0..3 {
+            start[side(v, k).0 as usize + 1] += 1;
+        }
     }
     for v in 0..n_vertices {
         start[v + 1] += start[v];
     }
-    let mut cursor = start.clone();
+    let mut cursor = start[..n_vertices].to_vec();
     let mut keys = vec![0u64; 3 * tris.len()];
-    for (h, lo, hi) in sides() {
-        let c = &mut cursor[lo as usize];
-        keys[*c as usize] = (hi as u64) << 32 | h as u64;
-        *c += 1;
+    for (t, v) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (lo, hi) = side(v, k);
+            let c = &mut cursor[lo as usize];
+            keys[*c as usize] = (hi as u64) << 32 | (3 * t + k) as u64;
+            *c += 1;
+        }
     }
     // Within a bucket, sorted keys with the same larger vertex are one edge;
     // `first[h]` is the first half-edge of h's edge.
@@ -190,14 +239,18 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u3
     // Number edges at their first half-edge; later half-edges copy the id
     // (`first[h] < h` is already renumbered when h is reached).
     let mut edges = Vec::with_capacity(keys.len() / 2 + 1);
-    for (h, lo, hi) in sides() {
-        let (h, f) = (h as usize, first[h as usize] as usize);
-        first[h] = if f == h {
-            edges.push([lo, hi]);
-            (edges.len() - 1) as u32
-        } else {
-            first[f]
-        };
+    for (t, v) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let h = 3 * t + k;
+            let f = first[h] as usize;
+            first[h] = if f == h {
+                let (lo, hi) = side(v, k);
+                edges.push([lo, hi]);
+                (edges.len() - 1) as u32
+            } else {
+                first[f]
+            };
+        }
     }
     let tri_edges = first.chunks_exact(3).map(|e| [e[0], e[1], e[2]]).collect();
     (edges, tri_edges)
@@ -473,16 +526,20 @@ fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
 
 /// Mean of finite non-negative `lengths` (0 for none), summed at the scale of
 /// the largest so that the sum cannot overflow (bit for bit the naive mean
-/// where that does not overflow or underflow).
+/// where that does not overflow or underflow). The common case takes one
+/// pass: the naive sum is kept alongside the largest length and used when
+/// that is below 1e150 (then the sum, at most 3 * 2^32 such terms, is finite).
 fn mean_length(lengths: impl Iterator<Item = f64> + Clone) -> f64 {
-    let (n, top) = lengths
+    let (n, top, sum) = lengths
         .clone()
-        .fold((0usize, 0.0f64), |(n, m), x| (n + 1, m.max(x)));
+        .fold((0usize, 0.0f64, 0.0f64), |(n, m, s), x| {
+            (n + 1, m.max(x), s + x)
+        });
     if top == 0.0 {
         return 0.0;
     }
     if top < 1e150 {
-        return lengths.sum::<f64>() / n as f64; // the common case: no overflow
+        return sum / n as f64; // the common case: no overflow
     }
     let k = exponent(top);
     mul_pow2(lengths.map(|x| mul_pow2(x, -k)).sum::<f64>() / n as f64, k)
@@ -614,6 +671,16 @@ mod tests {
                 }
             }
             assert_eq!(topo.edges, edges);
+            for (t, tri) in f.iter().enumerate() {
+                let first = |c: &Csr, r: u32| c.row(r as usize)[0] as usize == t;
+                let want = (0..3)
+                    .map(|k| {
+                        (first(&topo.vertex_tris, tri[k]) as u8) << k
+                            | (first(&topo.edge_tris, topo.tri_edges[t][k]) as u8) << (3 + k)
+                    })
+                    .sum::<u8>();
+                assert_eq!(topo.owned[t], want, "triangle {t}");
+            }
             for c in [&topo.edge_tris, &topo.vertex_tris] {
                 assert!((0..c.rows()).all(|r| c.row(r).windows(2).all(|w| w[0] < w[1])));
             }

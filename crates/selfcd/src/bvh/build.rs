@@ -56,15 +56,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
             mate
         };
         let first = (n + children.len()) as u32;
-        let fitted: Vec<(Aabb, NormalCone)> = pairs
-            .par_iter()
-            .map(|&(a, b)| {
-                let (a, b) = (a as usize, b as usize);
-                (boxes[a].union(&boxes[b]), cones[a].merge(&cones[b]))
-            })
-            .collect();
-        boxes.extend(fitted.iter().map(|f| f.0));
-        cones.extend(fitted.iter().map(|f| f.1));
+        fit_parents(&mut boxes, &mut cones, &pairs);
         patches.push_level(mesh, &pairs);
         children.extend(pairs.iter().map(|&(a, b)| [a, b]));
         levels.push(first..first + pairs.len() as u32);
@@ -80,6 +72,24 @@ pub fn build(mesh: &Mesh) -> Bvh {
         slabs: Vec::new(),
         patches: patches.finish(component),
     }
+}
+
+/// Appends the box and cone of every parent of `pairs` (children already
+/// fitted), written in place into the room reserved for every node (no
+/// temporary list, no copy).
+fn fit_parents(boxes: &mut Vec<Aabb>, cones: &mut Vec<NormalCone>, pairs: &[(u32, u32)]) {
+    let first = boxes.len();
+    boxes.resize(first + pairs.len(), Aabb::EMPTY);
+    cones.resize(first + pairs.len(), NormalCone::FULL);
+    let (children, parents) = boxes.split_at_mut(first);
+    let (child_cones, parent_cones) = cones.split_at_mut(first);
+    (parents.par_iter_mut().zip(parent_cones))
+        .zip(pairs)
+        .for_each(|((b, c), &(l, r))| {
+            let (l, r) = (l as usize, r as usize);
+            *b = children[l].union(&children[r]);
+            *c = child_cones[l].merge(&child_cones[r]);
+        });
 }
 
 /// Component tag of every leaf (see [`Patches::component`]), from the mesh's
@@ -338,9 +348,12 @@ struct PatchBuilder {
     degree: Vec<u32>,
     euler: Vec<i32>,
     eligible: Vec<bool>,
+    /// The parallel tasks' outputs, kept from level to level so that each
+    /// level writes into memory the previous one already touched.
+    parts: Vec<PatchOut>,
 }
 
-/// One node's patch, as computed in a parallel task.
+/// One chunk of nodes' patches, as computed in a parallel task.
 #[derive(Default)]
 struct PatchOut {
     contour: Vec<u32>,
@@ -350,6 +363,19 @@ struct PatchOut {
     boundary_ends: Vec<u32>,
     euler: Vec<i32>,
     eligible: Vec<bool>,
+}
+
+impl PatchOut {
+    /// Empties every list, keeping their memory.
+    fn clear(&mut self) {
+        self.contour.clear();
+        self.contour_ends.clear();
+        self.boundary.clear();
+        self.degree.clear();
+        self.boundary_ends.clear();
+        self.euler.clear();
+        self.eligible.clear();
+    }
 }
 
 impl PatchBuilder {
@@ -381,6 +407,7 @@ impl PatchBuilder {
             degree: vec![2; 3 * n],
             euler: vec![1; n],
             eligible: bad.iter().map(|&x| !x).collect(),
+            parts: Vec::new(),
         };
         b.reserve(n);
         b
@@ -401,28 +428,32 @@ impl PatchBuilder {
 
     /// Appends the patches of the unions of `pairs` (disjoint nodes), in order.
     fn push_level(&mut self, mesh: &Mesh, pairs: &[(u32, u32)]) {
-        let parts: Vec<PatchOut> = pairs
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut out = PatchOut::default();
+        let mut parts = std::mem::take(&mut self.parts);
+        let chunks = pairs.len().div_ceil(CHUNK);
+        if parts.len() < chunks {
+            parts.resize_with(chunks, PatchOut::default);
+        }
+        let this = &*self;
+        (parts[..chunks].par_iter_mut())
+            .zip(pairs.par_chunks(CHUNK))
+            .for_each(|(out, chunk)| {
+                out.clear();
                 let len =
                     |c: &Csr, n: u32| (c.offsets[n as usize + 1] - c.offsets[n as usize]) as usize;
                 let (mut nc, mut nb) = (0, 0);
                 for &(l, r) in chunk {
-                    nc += len(&self.contour, l) + len(&self.contour, r);
-                    nb += len(&self.boundary, l) + len(&self.boundary, r);
+                    nc += len(&this.contour, l) + len(&this.contour, r);
+                    nb += len(&this.boundary, l) + len(&this.boundary, r);
                 }
                 out.contour.reserve(nc);
                 out.boundary.reserve(nb);
                 out.degree.reserve(nb);
                 let mut shared = Vec::new();
                 for &(l, r) in chunk {
-                    self.union(mesh, l as usize, r as usize, &mut out, &mut shared);
+                    this.union(mesh, l as usize, r as usize, out, &mut shared);
                 }
-                out
-            })
-            .collect();
-        for p in parts {
+            });
+        for p in &parts[..chunks] {
             let base = self.contour.items.len() as u32;
             let ends = p.contour_ends.iter().map(|&e| base + e);
             self.contour.offsets.extend(ends);
@@ -435,6 +466,7 @@ impl PatchBuilder {
             self.euler.extend_from_slice(&p.euler);
             self.eligible.extend_from_slice(&p.eligible);
         }
+        self.parts = parts;
     }
 
     /// Appends the patch of the union of disjoint nodes `l` and `r` to `out`;
