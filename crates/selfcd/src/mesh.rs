@@ -138,11 +138,11 @@ impl Topology {
         let offsets = &self.edge_tris.offsets;
         // Edges in fixed chunks, each scanned by a plain loop (most rows hold
         // one or two triangles, too little work for a parallel task each).
-        (0..self.edges.len().div_ceil(EDGE_CHUNK))
+        (0..self.edges.len().div_ceil(CHECK_CHUNK))
             .into_par_iter()
             .filter_map(|c| {
                 let mut best: Option<(usize, usize)> = None;
-                for e in c * EDGE_CHUNK..((c + 1) * EDGE_CHUNK).min(self.edges.len()) {
+                for e in c * CHECK_CHUNK..((c + 1) * CHECK_CHUNK).min(self.edges.len()) {
                     if offsets[e + 1] - offsets[e] < 2 {
                         continue;
                     }
@@ -164,8 +164,9 @@ impl Topology {
     }
 }
 
-/// Edges per parallel task of [`Topology::first_duplicate`].
-const EDGE_CHUNK: usize = 4096;
+/// Edges or triangles per parallel task of the checks in [`Topology::first_duplicate`]
+/// and [`Mesh::new`].
+const CHECK_CHUNK: usize = 4096;
 
 /// [`Topology::owned`]: each vertex and edge is owned by the first triangle
 /// of its row, so one pass over the rows marks them (a scatter, O(vertices +
@@ -296,7 +297,13 @@ impl Mesh {
         let invalid = |t: &[u32; 3]| {
             t.iter().any(|&v| v as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
         };
-        if let Some(i) = triangles.par_iter().position_first(invalid) {
+        // The first invalid triangle: the first chunk holding one, scanned by
+        // a plain loop (a parallel search per triangle costs more than the test).
+        let first_bad =
+            (triangles.par_chunks(CHECK_CHUNK).enumerate()).find_map_first(|(c, chunk)| {
+                chunk.iter().position(invalid).map(|k| c * CHECK_CHUNK + k)
+            });
+        if let Some(i) = first_bad {
             return Err(first_invalid(&triangles[..=i], n));
         }
         let topo = Topology::new(n, &triangles);
