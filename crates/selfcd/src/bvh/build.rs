@@ -161,9 +161,8 @@ impl Level {
             .map(|i| self.best_partner(i, &mate, boxes))
             .collect();
         // Unmatched places that still have a candidate.
-        let mut open: Vec<u32> = (0..m as u32)
-            .filter(|&i| best[i as usize] != NONE)
-            .collect();
+        let mut open: Vec<u32> = Vec::with_capacity(m);
+        open.extend((0..m as u32).filter(|&i| best[i as usize] != NONE));
         for round in 0..ROUNDS {
             if round > 0 {
                 let fresh: Vec<u32> = open
@@ -311,7 +310,9 @@ fn par_rows(rows: usize, fill: impl Fn(usize, &mut Vec<u32>) + Sync) -> Csr {
     let parts: Vec<(Vec<u32>, Vec<u32>)> = (0..rows.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let (mut items, mut ends) = (Vec::new(), Vec::with_capacity(CHUNK));
+            // Room for rows of up to 8 on average (leaves have 3, coarser
+            // nodes rarely more), so that a chunk seldom regrows.
+            let (mut items, mut ends) = (Vec::with_capacity(8 * CHUNK), Vec::with_capacity(CHUNK));
             let mut row = Vec::new();
             for r in c * CHUNK..((c + 1) * CHUNK).min(rows) {
                 row.clear();
@@ -366,15 +367,25 @@ struct PatchOut {
 }
 
 impl PatchOut {
-    /// Empties every list, keeping their memory.
-    fn clear(&mut self) {
-        self.contour.clear();
-        self.contour_ends.clear();
-        self.boundary.clear();
-        self.degree.clear();
-        self.boundary_ends.clear();
-        self.euler.clear();
-        self.eligible.clear();
+    /// Empties every list, with room for `nodes` nodes holding at most
+    /// `contour` contour edges and `boundary` boundary vertices in all.
+    fn clear_for(&mut self, nodes: usize, contour: usize, boundary: usize) {
+        room(&mut self.contour, contour);
+        room(&mut self.contour_ends, nodes);
+        room(&mut self.boundary, boundary);
+        room(&mut self.degree, boundary);
+        room(&mut self.boundary_ends, nodes);
+        room(&mut self.euler, nodes);
+        room(&mut self.eligible, nodes);
+    }
+}
+
+/// Empties `v` with room for `n` items: its memory when large enough, else
+/// a new buffer (growing it would copy the stale items first).
+fn room<T>(v: &mut Vec<T>, n: usize) {
+    v.clear();
+    if v.capacity() < n {
+        *v = Vec::with_capacity(n);
     }
 }
 
@@ -397,33 +408,31 @@ impl PatchBuilder {
                 (c, v)
             })
             .unzip();
-        let threes = |rows: Vec<[u32; 3]>| Csr {
-            offsets: (0..=n as u32).map(|i| 3 * i).collect(),
-            items: rows.into_iter().flatten().collect(),
+        // Room for every node from the start: about four times the leaves'
+        // lists in all for patches that grow like disks (2.2 M entries for
+        // 0.6 M at the leaves of the 200k grid), so that the levels append
+        // without reallocating and nothing is copied into a larger buffer.
+        let threes = |rows: Vec<[u32; 3]>| {
+            let mut items = Vec::with_capacity(4 * 3 * n);
+            items.extend(rows.into_iter().flatten());
+            let mut offsets = Vec::with_capacity(2 * n);
+            offsets.extend((0..=n as u32).map(|i| 3 * i));
+            Csr { offsets, items }
         };
-        let mut b = PatchBuilder {
+        let mut degree = Vec::with_capacity(4 * 3 * n);
+        degree.resize(3 * n, 2);
+        let mut euler = Vec::with_capacity(2 * n);
+        euler.resize(n, 1);
+        let mut eligible = Vec::with_capacity(2 * n);
+        eligible.extend(bad.iter().map(|&x| !x));
+        PatchBuilder {
             contour: threes(contour),
             boundary: threes(boundary),
-            degree: vec![2; 3 * n],
-            euler: vec![1; n],
-            eligible: bad.iter().map(|&x| !x).collect(),
+            degree,
+            euler,
+            eligible,
             parts: Vec::new(),
-        };
-        b.reserve(n);
-        b
-    }
-
-    /// Room for `n` more nodes of about the leaves' average size, so that
-    /// the levels append without reallocating (the total is about three
-    /// times the leaves' lists for patches that grow like disks).
-    fn reserve(&mut self, n: usize) {
-        self.contour.offsets.reserve_exact(n);
-        self.boundary.offsets.reserve_exact(n);
-        self.contour.items.reserve(3 * self.contour.items.len());
-        self.boundary.items.reserve(3 * self.boundary.items.len());
-        self.degree.reserve(3 * self.degree.len());
-        self.euler.reserve_exact(n);
-        self.eligible.reserve_exact(n);
+        }
     }
 
     /// Appends the patches of the unions of `pairs` (disjoint nodes), in order.
@@ -437,7 +446,6 @@ impl PatchBuilder {
         (parts[..chunks].par_iter_mut())
             .zip(pairs.par_chunks(CHUNK))
             .for_each(|(out, chunk)| {
-                out.clear();
                 let len =
                     |c: &Csr, n: u32| (c.offsets[n as usize + 1] - c.offsets[n as usize]) as usize;
                 let (mut nc, mut nb) = (0, 0);
@@ -445,9 +453,7 @@ impl PatchBuilder {
                     nc += len(&this.contour, l) + len(&this.contour, r);
                     nb += len(&this.boundary, l) + len(&this.boundary, r);
                 }
-                out.contour.reserve(nc);
-                out.boundary.reserve(nb);
-                out.degree.reserve(nb);
+                out.clear_for(chunk.len(), nc, nb);
                 let mut shared = Vec::new();
                 for &(l, r) in chunk {
                     this.union(mesh, l as usize, r as usize, out, &mut shared);
