@@ -133,9 +133,17 @@ impl Level {
                 row.extend(others.filter(|&&u| u as usize != t));
             }
             // Two triangles share at most one edge (else they would be
-            // duplicates), so only a non-manifold edge can repeat a neighbour.
-            row.sort_unstable();
-            row.dedup();
+            // duplicates, which `Mesh::new` refuses), so no neighbour repeats;
+            // a row longer than three (a non-manifold edge) is deduplicated
+            // all the same. Most rows have three entries or fewer: three
+            // compare-exchanges sort them.
+            match row.len() {
+                0..=3 => sort_up_to_three(row),
+                _ => {
+                    row.sort_unstable();
+                    row.dedup();
+                }
+            }
         });
         Level {
             nodes: (0..mesh.n_triangles() as u32).collect(),
@@ -269,6 +277,17 @@ impl Level {
             row.dedup();
         });
         Level { nodes, adjacency }
+    }
+}
+
+/// Sorts a list of at most three items by compare-exchanges.
+#[inline]
+fn sort_up_to_three(row: &mut [u32]) {
+    let n = row.len();
+    for (i, j) in [(0, 1), (1, 2), (0, 1)] {
+        if j < n && row[j] < row[i] {
+            row.swap(i, j);
+        }
     }
 }
 
@@ -688,6 +707,36 @@ mod tests {
                 let tag = if tags.len() == 1 { tags[0] } else { SEVERAL };
                 assert_eq!(p.component[n as usize], tag, "node {n}");
             }
+        }
+    }
+
+    #[test]
+    fn three_compare_exchanges_sort_up_to_three() {
+        for row in [
+            vec![],
+            vec![5],
+            vec![7, 2],
+            vec![2, 7],
+            vec![3, 1, 2],
+            vec![2, 3, 1],
+        ] {
+            let mut want = row.clone();
+            want.sort_unstable();
+            let mut got = row;
+            sort_up_to_three(&mut got);
+            assert_eq!(got, want);
+        }
+        for p in [
+            [1, 2, 3],
+            [1, 3, 2],
+            [2, 1, 3],
+            [2, 3, 1],
+            [3, 1, 2],
+            [3, 2, 1],
+        ] {
+            let mut got = p;
+            sort_up_to_three(&mut got);
+            assert_eq!(got, [1, 2, 3], "{p:?}");
         }
     }
 
