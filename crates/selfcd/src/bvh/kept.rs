@@ -173,12 +173,19 @@ impl KeptCertificates {
         })
     }
 
-    /// Adds the certificates made in a frame (`Reuse::into_fresh`).
+    /// Adds the certificates made in a frame (`Reuse::into_fresh`). Where a
+    /// node (or union) already has one, the one holding for more is kept:
+    /// a certificate that did not hold this frame still holds in any later
+    /// frame whose spread is within its slack, and one remade under a large
+    /// spread keeps little (its slack less that spread).
     pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
-        for (_, k) in &fresh {
-            self.least_slack = self.least_slack.min(k.slack);
+        for (key, k) in fresh {
+            let kept = self.kept.entry(key).or_insert(k);
+            if k.slack > kept.slack {
+                *kept = k;
+            }
+            self.least_slack = self.least_slack.min(kept.slack);
         }
-        self.kept.extend(fresh);
     }
 
     /// The box of every vertex's displacement from the reference, in one
