@@ -241,10 +241,16 @@ fn shared_start(a: &Seg, b: &Seg, sa0: bool) -> [[f64; 2]; 3] {
 /// Reusable buffers of the loop tests: once warm, a test allocates nothing.
 #[derive(Debug, Clone, Default)]
 pub struct LoopScratch {
-    /// Open-addressing table start vertex -> end vertex of each edge.
+    /// Open-addressing table start vertex -> edge starting there.
     next: Vec<[u32; 2]>,
+    /// The edge ids of the last loop [`one_cycle`] accepted, in cycle order.
+    cycle: Vec<u32>,
+    /// The edges of a loop in cycle order (see [`in_cycle_order`]).
+    ordered: Vec<Seg>,
     /// Box of each edge.
     boxes: Vec<EdgeBox>,
+    /// Box of each run of [`RUN`] consecutive edges (small lists).
+    runs: Vec<EdgeBox>,
     /// Extent (min, max) of each edge along the sweep direction.
     spans: Vec<(f64, f64)>,
     /// Edge ids ordered by the bucket of their span's start.
@@ -262,9 +268,9 @@ fn slot(v: u32, mask: usize) -> usize {
 }
 
 /// Do the edges form one cycle, each vertex starting exactly one edge? O(m)
-/// with a hash table from each edge's start vertex to the edge, left in
-/// `table` for [`next_edge`].
-fn one_cycle(segs: &[Seg], table: &mut Vec<[u32; 2]>) -> bool {
+/// with a hash table from each edge's start vertex to the edge. When they
+/// do, `cycle` holds them in cycle order, from the first.
+fn one_cycle(segs: &[Seg], table: &mut Vec<[u32; 2]>, cycle: &mut Vec<u32>) -> bool {
     let m = segs.len();
     let mask = (2 * m).next_power_of_two() - 1;
     table.clear();
@@ -280,18 +286,22 @@ fn one_cycle(segs: &[Seg], table: &mut Vec<[u32; 2]>) -> bool {
         table[h] = [s.v[0], i as u32];
     }
     // Walk start -> end from the first edge: back after exactly m steps.
-    let (mut at, mut steps) = (segs[0].v[1], 1);
+    cycle.clear();
+    cycle.push(0);
+    let mut at = segs[0].v[1];
     while at != segs[0].v[0] {
-        if steps >= m {
+        if cycle.len() >= m {
             return false;
         }
         match next_edge(table, at) {
-            Some(k) => at = segs[k].v[1],
+            Some(k) => {
+                cycle.push(k as u32);
+                at = segs[k].v[1];
+            }
             None => return false,
         }
-        steps += 1;
     }
-    steps == m
+    cycle.len() == m
 }
 
 /// The edge starting at vertex `v` in the table [`one_cycle`] filled.
@@ -314,14 +324,33 @@ fn next_edge(table: &[[u32; 2]], v: u32) -> Option<usize> {
 /// positive. O(m) expected (hash table, bucket grid), no allocation once
 /// `scratch` is warm.
 pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
-    one_ccw_cycle(segs, scratch)
-        .is_some_and(|ext2| all_pairs_clear(segs, None, 1e-12 * ext2, scratch))
+    let Some(ext2) = one_ccw_cycle(segs, scratch) else {
+        return false;
+    };
+    let ordered = in_cycle_order(segs, scratch);
+    let ok = all_pairs_clear(&ordered, None, 1e-12 * ext2, scratch);
+    scratch.ordered = ordered;
+    ok
+}
+
+/// The loop [`one_cycle`] just accepted, in cycle order when it is long
+/// enough for the pair tests to use runs of consecutive edges (whose boxes
+/// are then tight), else as given. Taken from `scratch.ordered`: put it back.
+fn in_cycle_order(segs: &[Seg], scratch: &mut LoopScratch) -> Vec<Seg> {
+    let mut ordered = std::mem::take(&mut scratch.ordered);
+    ordered.clear();
+    if segs.len() > FEW {
+        ordered.extend(scratch.cycle.iter().map(|&k| segs[k as usize]));
+    } else {
+        ordered.extend_from_slice(segs);
+    }
+    ordered
 }
 
 /// The conditions of [`simple_ccw_loop`] but the edge pairs: one cycle with
 /// a positive signed area. Returns the squared extent of the loop.
 fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
-    if segs.len() < 3 || !one_cycle(segs, &mut scratch.next) {
+    if segs.len() < 3 || !one_cycle(segs, &mut scratch.next, &mut scratch.cycle) {
         return None;
     }
     let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
@@ -349,24 +378,26 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
 pub fn simple_ccw_loop_slack(segs: &[Seg], scratch: &mut LoopScratch, cap: f64) -> Option<f64> {
     let ext2 = one_ccw_cycle(segs, scratch)?;
     let (eps, extent) = (1e-12 * ext2, ext2.sqrt());
-    let mut slack = cap;
-    for a in segs {
-        let b = &segs[next_edge(&scratch.next, a.v[1])?];
-        slack = slack.min(pair_slack(a, b, eps, extent));
-    }
+    let m = segs.len();
+    let cycle = &scratch.cycle;
+    let slack = (0..m).fold(cap, |slack, k| {
+        let (a, b) = (cycle[k] as usize, cycle[(k + 1) % m] as usize);
+        slack.min(pair_slack(&segs[a], &segs[b], eps, extent))
+    });
     if !(slack >= 0.0) {
         return None;
     }
+    let ordered = in_cycle_order(segs, scratch);
     let near = std::cell::Cell::new(slack);
     // The grown boxes meet wherever the plain ones do, so every pair
     // `simple_ccw_loop` compares is compared (and must be clear) here too.
     let ok = pairs_clear(
-        segs,
+        &ordered,
         None,
         None,
         cap.min(slack + 1e-9 * extent),
         |i, j| {
-            let (a, b) = (&segs[i], &segs[j]);
+            let (a, b) = (&ordered[i], &ordered[j]);
             if a.v[1] == b.v[0] || b.v[1] == a.v[0] {
                 return true; // consecutive: done above
             }
@@ -376,6 +407,7 @@ pub fn simple_ccw_loop_slack(segs: &[Seg], scratch: &mut LoopScratch, cap: f64) 
         },
         scratch,
     );
+    scratch.ordered = ordered;
     ok.then(|| near.get().max(0.0) * (1.0 - 1e-9))
 }
 
@@ -593,24 +625,46 @@ fn pairs_clear(
         bx.hi = [bx.hi[0] + pad, bx.hi[1] + pad];
         boxes.push(bx);
     }
-    let (ba, bb) = boxes.split_at(a.len());
     match b {
         // Few edges: every pair's boxes, which is cheaper than bucketing.
-        None if m <= SMALL => {
+        // Very few edges: every pair's boxes.
+        _ if m <= FEW => {
             return (0..m).all(|i| {
-                let x = &ba[i];
-                ba[i + 1..]
-                    .iter()
-                    .enumerate()
-                    .all(|(k, y)| !x.meets(y) || clear(i, i + 1 + k))
-            })
+                (i + 1..m).all(|j| !wanted(i, j) || !boxes[i].meets(&boxes[j]) || clear(i, j))
+            });
         }
-        Some(_) if m <= SMALL => {
-            return ba.iter().enumerate().all(|(i, x)| {
-                bb.iter()
-                    .enumerate()
-                    .all(|(k, y)| !x.meets(y) || clear(i, a.len() + k))
-            })
+        // Few edges: every pair of runs, then the edge pairs of runs that
+        // meet, which is cheaper than bucketing.
+        _ if m <= SMALL => {
+            let runs = &mut scratch.runs;
+            runs.clear();
+            runs.extend(boxes.chunks(RUN).map(|c| {
+                c.iter().fold(c[0], |r, x| EdgeBox {
+                    lo: [min(r.lo[0], x.lo[0]), min(r.lo[1], x.lo[1])],
+                    hi: [max(r.hi[0], x.hi[0]), max(r.hi[1], x.hi[1])],
+                })
+            }));
+            let edges = |r: usize| r * RUN..m.min(r * RUN + RUN);
+            let n_a = a.len().div_ceil(RUN);
+            let last = if b.is_none() { runs.len() } else { n_a };
+            return (0..last).all(|r| {
+                // Runs of `b` start at a run boundary only when `a`'s length
+                // is a multiple of RUN; a run mixing both is compared with
+                // itself, and `wanted` keeps one edge of each list.
+                let first = if b.is_none() {
+                    r
+                } else {
+                    r.max(n_a.saturating_sub(1))
+                };
+                (first..runs.len()).all(|q| {
+                    !runs[r].meets(&runs[q])
+                        || edges(r).all(|i| {
+                            let from = if q == r { i + 1 } else { q * RUN };
+                            (from..edges(q).end)
+                                .all(|j| !wanted(i, j) || !boxes[i].meets(&boxes[j]) || clear(i, j))
+                        })
+                })
+            });
         }
         _ => {}
     }
@@ -679,7 +733,13 @@ fn pairs_clear(
 }
 
 /// Lists of up to this many edges in all compare every pair's boxes.
-const SMALL: usize = 96;
+const FEW: usize = 24;
+
+/// Lists of up to this many edges in all compare every pair of runs' boxes.
+const SMALL: usize = 160;
+
+/// Consecutive edges of a run (the small lists' first level).
+const RUN: usize = 4;
 
 /// Minimum of two finite numbers (no NaN handling).
 #[inline]
@@ -1124,7 +1184,7 @@ mod sweep_tests {
 
     #[test]
     fn one_cycle_rejects_two_loops_and_pinches() {
-        let mut t = Vec::new();
+        let (mut t, mut c) = (Vec::new(), Vec::new());
         let ring = |ids: &[u32]| -> Vec<Seg> {
             (0..ids.len())
                 .map(|i| Seg {
@@ -1133,15 +1193,23 @@ mod sweep_tests {
                 })
                 .collect()
         };
-        assert!(one_cycle(&ring(&[4, 9, 2, 7]), &mut t));
+        assert!(one_cycle(&ring(&[4, 2, 9, 7]), &mut t, &mut c));
+        assert_eq!(c, [0, 1, 2, 3], "cycle order");
+        let mut shuffled = ring(&[4, 2, 9, 7]);
+        shuffled.swap(1, 3);
+        assert!(one_cycle(&shuffled, &mut t, &mut c));
+        assert_eq!(c, [0, 3, 2, 1], "cycle order from a shuffled list");
         let mut two = ring(&[1, 2, 3]);
         two.extend(ring(&[5, 6, 7]));
-        assert!(!one_cycle(&two, &mut t), "two cycles");
+        assert!(!one_cycle(&two, &mut t, &mut c), "two cycles");
         let mut pinch = ring(&[1, 2, 3]);
         pinch.extend(ring(&[1, 6, 7]));
-        assert!(!one_cycle(&pinch, &mut t), "vertex 1 starts two edges");
+        assert!(
+            !one_cycle(&pinch, &mut t, &mut c),
+            "vertex 1 starts two edges"
+        );
         let mut open = ring(&[1, 2, 3, 4]);
         open.pop();
-        assert!(!one_cycle(&open, &mut t), "not closed");
+        assert!(!one_cycle(&open, &mut t, &mut c), "not closed");
     }
 }
