@@ -4,12 +4,14 @@
 //! A certificate of [`super::certify::ContourCull`] says that a node, or the
 //! union of two adjacent nodes, is a height field along an axis `v`: its
 //! normals lie strictly within 90 degrees of `v` and its contour, projected
-//! along `v`, is a star about a point or a simple counter-clockwise loop.
+//! along `v`, is a star about a point or a simple counter-clockwise loop (for
+//! two nodes touching only at vertices: two such loops meeting only there).
 //! When it is made, the loop tests also say how far (its *slack* `s`) every
 //! contour vertex may move, any common translation removed, with the
-//! projected loop keeping that property in exact arithmetic
+//! projected loops keeping that property in exact arithmetic
 //! ([`star_slack`](crate::geom::loop2d::star_slack),
-//! [`simple_ccw_loop_slack`](crate::geom::loop2d::simple_ccw_loop_slack)).
+//! [`simple_ccw_loop_slack`](crate::geom::loop2d::simple_ccw_loop_slack),
+//! [`loops_meet_only_where_shared_slack`](crate::geom::loop2d::loops_meet_only_where_shared_slack)).
 //!
 //! **Bounding the move.** Displacements `e_i = x_i - r_i` are taken from one
 //! reference `r`, and every node gets the box of its vertices'

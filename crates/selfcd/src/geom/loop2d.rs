@@ -321,8 +321,10 @@ fn next_edge(table: &[[u32; 2]], v: u32) -> Option<usize> {
 /// Is the projected contour one simple counter-clockwise loop? Every vertex
 /// starts exactly one edge, the edges form a single cycle, no two edges meet
 /// except consecutive ones at their shared vertex, and the signed area is
-/// positive. O(m) expected (hash table, bucket grid), no allocation once
-/// `scratch` is warm.
+/// positive. The edge pairs are compared in cycle order: every pair of runs
+/// of consecutive edges, then the edge pairs of runs whose boxes meet, or a
+/// bucket grid for long loops (O(m) expected); no allocation once `scratch`
+/// is warm.
 pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
     let Some(ext2) = one_ccw_cycle(segs, scratch) else {
         return false;
@@ -365,12 +367,11 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
 /// orientation, which only a self-touching loop could flip, stays):
 /// `Some(s)` bounds the move of every vertex, any common translation removed.
 /// Two edges sharing no vertex stay apart while each moves less than half
-/// their distance; two sharing one keep their cross product's sign, or a
-/// negative dot product (see [`adjacent_slack`]).
+/// their distance; two sharing one keep an angle between them (see
+/// [`adjacent_slack`]).
 ///
 /// Consecutive edges (the only ones sharing a vertex in one cycle) come
-/// first: on real contours they set the least slack almost always (1,187 of
-/// 1,200 fresh loops on the body mesh). The other pairs are then compared
+/// first: on real contours they usually set the least slack. The other pairs are then compared
 /// only where their boxes are within twice that slack, plus the slack's own
 /// margin (`1e-9` of the extent), of each other (and never beyond `2 cap`):
 /// a pair farther apart has a slack above it, so the answer is the one of
@@ -633,7 +634,6 @@ fn pairs_clear(
         boxes.push(bx);
     }
     match b {
-        // Few edges: every pair's boxes, which is cheaper than bucketing.
         // Very few edges: every pair's boxes.
         _ if m <= FEW => {
             return (0..m).all(|i| {
