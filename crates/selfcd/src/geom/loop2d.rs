@@ -329,24 +329,28 @@ pub fn simple_ccw_loop(segs: &[Seg], scratch: &mut LoopScratch) -> bool {
     let Some(ext2) = one_ccw_cycle(segs, scratch) else {
         return false;
     };
-    let ordered = in_cycle_order(segs, scratch);
-    let ok = all_pairs_clear(&ordered, None, 1e-12 * ext2, scratch);
-    scratch.ordered = ordered;
-    ok
+    in_cycle_order(segs, scratch, |ordered, scratch| {
+        all_pairs_clear(ordered, None, 1e-12 * ext2, scratch)
+    })
 }
 
-/// The loop [`one_cycle`] just accepted, in cycle order when it is long
-/// enough for the pair tests to use runs of consecutive edges (whose boxes
-/// are then tight), else as given. Taken from `scratch.ordered`: put it back.
-fn in_cycle_order(segs: &[Seg], scratch: &mut LoopScratch) -> Vec<Seg> {
+/// `f` of the loop [`one_cycle`] just accepted, in cycle order when the
+/// pair tests use runs of consecutive edges (whose boxes are then tight),
+/// else as given.
+fn in_cycle_order<R>(
+    segs: &[Seg],
+    scratch: &mut LoopScratch,
+    f: impl FnOnce(&[Seg], &mut LoopScratch) -> R,
+) -> R {
+    if segs.len() <= FEW || segs.len() > SMALL {
+        return f(segs, scratch); // all pairs, or buckets: any order does
+    }
     let mut ordered = std::mem::take(&mut scratch.ordered);
     ordered.clear();
-    if segs.len() > FEW {
-        ordered.extend(scratch.cycle.iter().map(|&k| segs[k as usize]));
-    } else {
-        ordered.extend_from_slice(segs);
-    }
-    ordered
+    ordered.extend(scratch.cycle.iter().map(|&k| segs[k as usize]));
+    let r = f(&ordered, scratch);
+    scratch.ordered = ordered;
+    r
 }
 
 /// The conditions of [`simple_ccw_loop`] but the edge pairs: one cycle with
@@ -388,27 +392,27 @@ pub fn simple_ccw_loop_slack(segs: &[Seg], scratch: &mut LoopScratch, cap: f64) 
     if !(slack >= 0.0) {
         return None;
     }
-    let ordered = in_cycle_order(segs, scratch);
     let near = std::cell::Cell::new(slack);
     // The grown boxes meet wherever the plain ones do, so every pair
     // `simple_ccw_loop` compares is compared (and must be clear) here too.
-    let ok = pairs_clear(
-        &ordered,
-        None,
-        None,
-        cap.min(slack + 1e-9 * extent),
-        |i, j| {
-            let (a, b) = (&ordered[i], &ordered[j]);
-            if a.v[1] == b.v[0] || b.v[1] == a.v[0] {
-                return true; // consecutive: done above
-            }
-            let s = pair_slack(a, b, eps, extent);
-            near.set(near.get().min(s));
-            s >= 0.0
-        },
-        scratch,
-    );
-    scratch.ordered = ordered;
+    let ok = in_cycle_order(segs, scratch, |ordered, scratch| {
+        pairs_clear(
+            ordered,
+            None,
+            None,
+            cap.min(slack + 1e-9 * extent),
+            |i, j| {
+                let (a, b) = (&ordered[i], &ordered[j]);
+                if a.v[1] == b.v[0] || b.v[1] == a.v[0] {
+                    return true; // consecutive: done above
+                }
+                let s = pair_slack(a, b, eps, extent);
+                near.set(near.get().min(s));
+                s >= 0.0
+            },
+            scratch,
+        )
+    });
     ok.then(|| near.get().max(0.0) * (1.0 - 1e-9))
 }
 
@@ -440,15 +444,16 @@ fn pair_slack(a: &Seg, b: &Seg, eps: f64, extent: f64) -> f64 {
 /// angle cannot close while the two turns add up to less than `theta`,
 /// which holds for `s < min(|da|, |db|) sin(theta / 2) / 2` (then each turn
 /// is below `theta / 2`). `sin(theta / 2)` is half the distance between the
-/// unit directions (no cancellation at small angles). The slack is shrunk
-/// by `1e-9 extent` for the rounding of the projection and of itself.
+/// unit directions; its rounding near 0 is a few ulps of the edges' length,
+/// far below the `1e-9 extent` the slack is shrunk by for the rounding of
+/// the projection and of itself.
 /// (A bound on the cross and dot products alone gave `s` about 0.21
 /// `|da|` for a straight run of edges, where this gives 0.5 `|da|`.)
 fn adjacent_slack(da: [f64; 2], db: [f64; 2], extent: f64) -> f64 {
+    // min(la, lb) sin(theta / 2) / 2 = |da lb - db la| / (4 max(la, lb)).
     let (la, lb) = (len(da), len(db));
-    let (u, w) = ([da[0] / la, da[1] / la], [db[0] / lb, db[1] / lb]);
-    let sin_half = 0.5 * len([u[0] - w[0], u[1] - w[1]]);
-    let s = 0.5 * la.min(lb) * sin_half * (1.0 - 1e-12) - 1e-9 * extent;
+    let chord = len([da[0] * lb - db[0] * la, da[1] * lb - db[1] * la]);
+    let s = 0.25 * chord / la.max(lb) * (1.0 - 1e-12) - 1e-9 * extent;
     // (NaN, from a zero-length edge, gives 0.)
     s.max(0.0)
 }
