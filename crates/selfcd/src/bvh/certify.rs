@@ -29,7 +29,7 @@
 //! a certificate of an earlier frame that this frame's cones and
 //! displacement bounds show still holds.
 
-use super::kept::{key, Reuse};
+use super::kept::Reuse;
 use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
@@ -206,7 +206,7 @@ impl<'a> ContourCull<'a> {
     /// cones within 90 degrees of its axis.
     fn reused(&self, r: &Reuse, a: u32, b: u32) -> bool {
         let cones = &self.bvh.cones;
-        r.get(key(a, b), r.spread(a, b)).is_some_and(|k| {
+        r.get(a, b).is_some_and(|k| {
             cones[a as usize].within_90_of(k.axis) && cones[b as usize].within_90_of(k.axis)
         })
     }
@@ -228,7 +228,7 @@ impl<'a> ContourCull<'a> {
             &mut s.segs,
             &mut s.loops,
         );
-        r.record(key(a, b), axis, slack, r.spread(a, b))
+        r.record((a, b), axis, slack)
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
@@ -277,7 +277,7 @@ impl<'a> ContourCull<'a> {
                 let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
                 Some(sa.min(sb).min(sab))
             });
-        r.record(key(a, b), axis, slack, r.spread(a, b))
+        r.record((a, b), axis, slack)
     }
 }
 

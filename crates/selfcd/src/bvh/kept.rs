@@ -4,22 +4,26 @@
 //! A certificate of [`super::certify::ContourCull`] says that a node, or the
 //! union of two adjacent nodes, is a height field along an axis `v`: its
 //! normals lie strictly within 90 degrees of `v` and its contour, projected
-//! along `v`, is a star about a point or a simple counter-clockwise loop.
+//! along `v`, is a star about a point or a simple counter-clockwise loop (for
+//! two nodes touching only at vertices: two such loops meeting only there).
 //! When it is made, the loop tests also say how far (its *slack* `s`) every
 //! contour vertex may move, any common translation removed, with the
-//! projected loop keeping that property in exact arithmetic
+//! projected loops keeping that property in exact arithmetic
 //! ([`star_slack`](crate::geom::loop2d::star_slack),
-//! [`simple_ccw_loop_slack`](crate::geom::loop2d::simple_ccw_loop_slack)).
+//! [`simple_ccw_loop_slack`](crate::geom::loop2d::simple_ccw_loop_slack),
+//! [`loops_meet_only_where_shared_slack`](crate::geom::loop2d::loops_meet_only_where_shared_slack)).
 //!
 //! **Bounding the move.** Displacements `e_i = x_i - r_i` are taken from one
 //! reference `r`, and every node gets the box of its vertices'
 //! displacements, fitted bottom-up each frame. Between the frame `t` a
 //! certificate was made and the current one, vertex `i` moved by
-//! `e_i - e_i(t)`; both lie in boxes of half-diagonals `h` and `h(t)` about
-//! their centres, so the move is a common translation plus at most
-//! `h + h(t)`. The certificate stores `s - h(t)` and holds while
-//! `h <= s - h(t)`. The normals are checked on this frame's cones: each must
-//! lie strictly within 90 degrees of the stored axis
+//! `e_i - e_i(t)`. Only the part of that move across the certificate's axis
+//! moves the projected contour, and both displacements lie in boxes whose
+//! points are within `h` and `h(t)` of the line along the axis through the
+//! box centre ([`half_diagonal_across`]), so the projected move is a common
+//! translation plus at most `h + h(t)`. The certificate stores `s - h(t)`
+//! and holds while `h <= s - h(t)`. The normals are checked on this frame's
+//! cones: each must lie strictly within 90 degrees of the stored axis
 //! ([`NormalCone::within_90_of`](crate::geom::NormalCone::within_90_of)).
 //! The topology (a disk, or two glued along edges) does not change. So a kept
 //! certificate is exactly as sound as a fresh one; reusing it costs O(1)
@@ -84,7 +88,7 @@ pub struct KeptCertificates {
 
 /// The map key of node `a`'s certificate (`a == b`) or of the union of `a` and `b`.
 #[inline]
-pub fn key(a: u32, b: u32) -> u64 {
+fn key(a: u32, b: u32) -> u64 {
     let (a, b) = (a.min(b) as u64, a.max(b) as u64);
     a << 32 | b
 }
@@ -96,6 +100,31 @@ pub fn key(a: u32, b: u32) -> u64 {
 fn half_diagonal(b: &Aabb) -> f64 {
     let size = b.min.abs().max(b.max.abs()).max_element();
     (0.5 * (b.max - b.min).length() + 1e-15 * size) * (1.0 + 1e-12)
+}
+
+/// [`half_diagonal`] across unit `axis`: the farthest any point of the box
+/// is from the line through its centre along `axis`, which bounds how far
+/// displacements in the box move a projection along `axis` (the contour
+/// test's) apart from a common translation. A convex function of the point,
+/// so a corner's: `|c x axis|` for the half-extents `c` with each sign of y
+/// and z (no cancellation when `c` is near `axis`). Never above
+/// [`half_diagonal`]; much below it for motion along the axis (cloth moving
+/// along its normals).
+#[inline]
+fn half_diagonal_across(b: &Aabb, axis: DVec3) -> f64 {
+    let size = b.min.abs().max(b.max.abs()).max_element();
+    let h = 0.5 * (b.max - b.min);
+    let far = [1.0, -1.0]
+        .iter()
+        .flat_map(|&y| [1.0, -1.0].map(|z| (y, z)));
+    let r2 = far.fold(0.0, |r2: f64, (y, z)| {
+        r2.max(
+            DVec3::new(h.x, y * h.y, z * h.z)
+                .cross(axis)
+                .length_squared(),
+        )
+    });
+    (r2.sqrt() + 1e-15 * size) * (1.0 + 1e-12)
 }
 
 impl KeptCertificates {
@@ -173,12 +202,19 @@ impl KeptCertificates {
         })
     }
 
-    /// Adds the certificates made in a frame (`Reuse::into_fresh`).
+    /// Adds the certificates made in a frame (`Reuse::into_fresh`). Where a
+    /// node (or union) already has one, the one holding for more is kept:
+    /// a certificate that did not hold this frame still holds in any later
+    /// frame whose spread is within its slack, and one remade under a large
+    /// spread keeps little (its slack less that spread).
     pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
-        for (_, k) in &fresh {
-            self.least_slack = self.least_slack.min(k.slack);
+        for (key, k) in fresh {
+            let kept = self.kept.entry(key).or_insert(k);
+            if k.slack > kept.slack {
+                *kept = k;
+            }
+            self.least_slack = self.least_slack.min(kept.slack);
         }
-        self.kept.extend(fresh);
     }
 
     /// The box of every vertex's displacement from the reference, in one
@@ -217,34 +253,38 @@ impl Reuse<'_> {
     }
 
     /// The displacement spread of node `a`, or of the union of `a` and `b`
-    /// (the whole mesh's when only that was fitted).
+    /// (the whole mesh's when only that was fitted), across `axis`.
     #[inline]
-    pub fn spread(&self, a: u32, b: u32) -> f64 {
+    fn spread(&self, a: u32, b: u32, axis: DVec3) -> f64 {
         match self.spread {
-            [whole] => half_diagonal(whole),
-            all => half_diagonal(&all[a as usize].union(&all[b as usize])),
+            [whole] => half_diagonal_across(whole, axis),
+            all => half_diagonal_across(&all[a as usize].union(&all[b as usize]), axis),
         }
     }
 
-    /// The certificate under `key` when it still holds for spread `h`.
+    /// The kept certificate of node `a` (`a == b`) or of the union of `a`
+    /// and `b` when this frame's spread is within its slack (the spread is
+    /// only taken where there is a certificate).
     #[inline]
-    pub fn get(&self, key: u64, h: f64) -> Option<Kept> {
-        self.kept.get(&key).copied().filter(|k| h <= k.slack)
+    pub fn get(&self, a: u32, b: u32) -> Option<Kept> {
+        let k = self.kept.get(&key(a, b))?;
+        (self.spread(a, b, k.axis) <= k.slack).then_some(*k)
     }
 
-    /// Records a certificate made this frame at spread `h` with slack
-    /// `slack` (None: no certificate); returns whether there is one.
-    pub fn record(&self, key: u64, axis: DVec3, slack: Option<f64>, h: f64) -> bool {
+    /// Records the certificate of node `a` (`a == b`) or of the union of
+    /// `a` and `b` made this frame along `axis` with slack `slack` (None: no
+    /// certificate); returns whether there is one.
+    pub fn record(&self, (a, b): (u32, u32), axis: DVec3, slack: Option<f64>) -> bool {
         let Some(slack) = slack else {
             return false;
         };
-        let left = slack - h;
+        let left = slack - self.spread(a, b, axis);
         if left > 0.0 {
             let kept = Kept { axis, slack: left };
             self.fresh
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
-                .push((key, kept));
+                .push((key(a, b), kept));
         }
         true
     }
@@ -252,5 +292,51 @@ impl Reuse<'_> {
     /// The certificates made this frame.
     pub fn into_fresh(self) -> Vec<(u64, Kept)> {
         self.fresh.into_inner().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SplitMix;
+
+    /// Every point of a box is within [`half_diagonal_across`] of the line
+    /// along the axis through the box centre; a corner is almost that far
+    /// (the bound is tight); never more than [`half_diagonal`]; and motion
+    /// along the axis only counts for its rounding.
+    #[test]
+    fn across_bounds_the_distance_from_the_axis_line() {
+        let mut rng = SplitMix::new(17);
+        let mut r = || 2.0 * rng.unit() - 1.0;
+        for _ in 0..500 {
+            let (a, b) = (DVec3::new(r(), r(), r()), DVec3::new(r(), r(), r()));
+            let bx = Aabb {
+                min: a.min(b),
+                max: a.max(b),
+            };
+            let axis = DVec3::new(r(), r(), r()).normalize();
+            let across = half_diagonal_across(&bx, axis);
+            assert!(across <= half_diagonal(&bx));
+            let c = bx.center();
+            let off_line = |p: DVec3| (p - c).reject_from_normalized(axis).length();
+            let mut farthest: f64 = 0.0;
+            for k in 0..64 {
+                let t = DVec3::new(r(), r(), r()) * 0.5 + 0.5;
+                let corner = DVec3::new((k & 1) as f64, (k >> 1 & 1) as f64, (k >> 2 & 1) as f64);
+                for p in [
+                    bx.min + (bx.max - bx.min) * t,
+                    bx.min + (bx.max - bx.min) * corner,
+                ] {
+                    farthest = farthest.max(off_line(p));
+                }
+            }
+            assert!(farthest <= across && across <= farthest * (1.0 + 1e-9) + 1e-14);
+        }
+        let along = Aabb {
+            min: DVec3::new(0.0, 0.0, -1.0),
+            max: DVec3::new(0.0, 0.0, 1.0),
+        };
+        assert!(half_diagonal_across(&along, DVec3::Z) <= 2e-15);
+        assert!(half_diagonal_across(&along, DVec3::X) >= 1.0);
     }
 }
