@@ -43,6 +43,8 @@ impl Csr {
     /// every `t` with `r` in `triples[t]`, in increasing order (once per
     /// occurrence). Equal to [`from_pairs`](Self::from_pairs) over the pairs
     /// `(triples[t][k], t)` in order, in two tight passes (a counting sort).
+    /// Kept apart from `from_pairs` for speed: fed those pairs by an iterator
+    /// chain, `Mesh::new` at 200k took 17.2 ms instead of 12.4 (one thread).
     pub fn from_triples(rows: usize, triples: &[[u32; 3]]) -> Csr {
         let mut offsets = vec![0u32; rows + 1];
         for x in triples {
@@ -602,6 +604,19 @@ fn check_finite(p: &[DVec3]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `from_triples` is `from_pairs` over every (row, triple index) pair.
+    #[test]
+    fn from_triples_is_from_pairs() {
+        let mut rng = crate::scene::SplitMix::new(9);
+        let triples: Vec<[u32; 3]> = (0..500)
+            .map(|_| [(); 3].map(|_| (rng.unit() * 60.0) as u32))
+            .collect();
+        let pairs = triples.iter().enumerate();
+        let want = Csr::from_pairs(60, pairs.flat_map(|(t, x)| x.map(|r| (r, t as u32))));
+        let got = Csr::from_triples(60, &triples);
+        assert_eq!((got.offsets, got.items), (want.offsets, want.items));
+    }
 
     fn quad() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
         (
