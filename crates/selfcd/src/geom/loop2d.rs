@@ -562,17 +562,17 @@ fn edges_stay_clear(a: [&Seg; 2], b: [&Seg; 2], eps: f64) -> bool {
 /// Every pair of edges (one from `a`, one from `b`; or two distinct edges of
 /// `a` when `b` is None) is clear (see `edges_clear`). Edges whose extents
 /// along a sweep direction, or whose closed boxes, are apart are clear, so
-/// only pairs overlapping in both are compared. The extents are bucketed by
+/// only pairs overlapping in both are compared. Up to [`FEW`] edges every
+/// pair's boxes are compared; up to [`SMALL`], the boxes of runs of [`RUN`]
+/// consecutive edges first (tight when the list is in cycle order), then the
+/// edge pairs of runs that meet. Beyond, the extents are bucketed by
 /// their start (m buckets over the whole range, a counting sort), and each
 /// edge is compared with the edges starting within its own extent: every
 /// overlapping pair has one edge starting inside the other's extent, and is
 /// met exactly once. A loop crosses each place along the sweep a few times
 /// only, so this is O(m) expected. Non-finite coordinates are never clear.
 fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScratch) -> bool {
-    let get = |i: usize| match b {
-        Some(b) if i >= a.len() => &b[i - a.len()],
-        _ => &a[i],
-    };
+    let get = |i| edge_at(a, b, i);
     pairs_clear(
         a,
         b,
@@ -581,6 +581,15 @@ fn all_pairs_clear(a: &[Seg], b: Option<&[Seg]>, eps: f64, scratch: &mut LoopScr
         |i, j| edges_clear(get(i), get(j), eps),
         scratch,
     )
+}
+
+/// Edge `i` of the lists `a` then `b` (the numbering of [`pairs_clear`]).
+#[inline]
+fn edge_at<'a>(a: &'a [Seg], b: Option<&'a [Seg]>, i: usize) -> &'a Seg {
+    match b {
+        Some(b) if i >= a.len() => &b[i - a.len()],
+        _ => &a[i],
+    }
 }
 
 /// [`all_pairs_clear`] with the test `clear(i, j)` on edge ids (`a`'s, then
@@ -597,10 +606,7 @@ fn pairs_clear(
     scratch: &mut LoopScratch,
 ) -> bool {
     let m = a.len() + b.map_or(0, <[Seg]>::len);
-    let get = |i: usize| match b {
-        Some(b) if i >= a.len() => &b[i - a.len()],
-        _ => &a[i],
-    };
+    let get = |i| edge_at(a, b, i);
     // Pairs to compare: distinct edges of one list, or one edge of each list.
     let wanted = |i: usize, j: usize| b.is_none() || ((i < a.len()) != (j < a.len()));
     // Sweep along a direction 22.5 degrees off the plane's axes, so that the
@@ -830,7 +836,7 @@ pub fn loops_meet_only_where_shared_slack(
     }
     let (eps, extent) = (1e-12 * ext2, ext2.sqrt());
     let slack = std::cell::Cell::new(cap);
-    let edge = |i: usize| a.get(i).unwrap_or_else(|| &b[i - a.len()]);
+    let edge = |i| edge_at(a, Some(b), i);
     let ok = pairs_clear(
         a,
         Some(b),
