@@ -335,7 +335,7 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
 /// A rigid translation keeps the candidate set (distances do not change), and
 /// the answers still equal a fresh query's at the translated positions; a
 /// motion wider than the skin is answered by the motion-culled traversal and
-/// makes the next query rebuild the set.
+/// makes the next query of the same distance rebuild the set.
 #[test]
 fn translation_reuses_the_candidate_set() {
     use selfcd::detect::coherent::SelfQueries;
@@ -389,9 +389,16 @@ fn translation_reuses_the_candidate_set() {
     let shaken = q.proximity(&jitter, d, &mut s).unwrap();
     assert_eq!(shaken, fresh.detect(&jitter).unwrap().proximity);
     assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 1));
+    // Staleness is per kind of query: one at another distance keeps the set
+    // (and answers right from it and its traversal) ...
+    let near = q.proximity(&jitter, 0.5 * d, &mut s).unwrap();
+    let mut thin = BvhDetector::new(m.clone(), Method::Bvh, 0.5 * d);
+    assert_eq!(near, thin.detect(&jitter).unwrap().proximity);
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 2));
+    // ... and the next query at `d` rebuilds first.
     let again = q.proximity(&jitter, d, &mut s).unwrap();
     assert_eq!(again, shaken);
-    assert_eq!((s.candidate_builds, s.candidate_reuses), (2, 1));
+    assert_eq!((s.candidate_builds, s.candidate_reuses), (2, 2));
 }
 
 /// The continuous stage's rounds: a query repeated from the same start with

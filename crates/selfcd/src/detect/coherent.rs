@@ -32,7 +32,15 @@
 //! included) on disjoint sets whose union holds every pair the fresh query
 //! reports, so the answer equals it; `tests/continuous.rs` checks that on
 //! simulated sequences. A mesh that moved coherently culls the traversal near
-//! the root; the set is rebuilt when part (b) grew to a good share of a rebuild.
+//! the root.
+//!
+//! **Rebuilds.** Part (b) grows as the set ages, so the last query of the
+//! same kind (distance and number of ends) predicts the next one's: a query
+//! rebuilds the set first, at its own positions, when the last query of its
+//! kind tested a good share of a rebuild in part (b). It then pays the
+//! rebuild instead of that part (b) and the rebuild, and queries of other
+//! kinds (a continuous query's thinner distance leaves it a wider
+//! allowance) keep using the set meanwhile.
 //!
 //! **Repeated continuous queries.** A continuous query from the same start
 //! with the same thickness as the last one, whose end positions differ only
@@ -110,11 +118,27 @@ type Visited = (ElementPair, [u32; 2]);
 const SLACK: (f64, f64) = (1e-9, 1e-3);
 
 /// A reuse query whose fresh part (b) tested more leaf pairs than this
-/// fraction of the last build's marks the set stale: the next query rebuilds.
-/// Measured on the centre scene (instructions, 60 steps at 3,200 triangles /
-/// 20 at 20k): 0.25 gave 10.60G / 19.90G, 0.5 10.98G / 19.75G, 0.125
-/// 10.76G at 3,200, 1.0 14.39G at 3,200.
+/// fraction of the last build's marks the set stale for its kind: the next
+/// query of that kind rebuilds first ([`Kind`]).
 const STALE_SHARE: f64 = 0.25;
+
+/// What predicts a query's part (b): its distance (bits) and number of ends
+/// (1 for proximity, 2 for a motion). Queries of one kind in a sequence see
+/// the set age alike.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Kind {
+    distance: u64,
+    ends: usize,
+}
+
+impl Kind {
+    fn new(distance: f64, ends: usize) -> Kind {
+        Kind {
+            distance: distance.to_bits(),
+            ends,
+        }
+    }
+}
 
 impl Candidates {
     /// The spread below which every pair within `reach` at positions of
@@ -440,8 +464,9 @@ pub struct SelfQueries {
     fit: Fit,
     candidates: Candidates,
     motion: Motion,
-    /// The last reuse query's fresh part cost a good share of a rebuild.
-    stale: bool,
+    /// Leaf pairs the last reuse query of each kind tested in part (b)
+    /// since the set was built.
+    uncovered_tests: Vec<(Kind, u64)>,
     /// The last continuous query, for repeats.
     sweep: Sweep,
     skin: f64,
@@ -476,7 +501,7 @@ impl SelfQueries {
             fit: Fit::default(),
             candidates: Candidates::default(),
             motion: Motion::default(),
-            stale: false,
+            uncovered_tests: Vec::new(),
             sweep: Sweep::default(),
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
@@ -567,7 +592,7 @@ impl SelfQueries {
             magnitude,
             build_tests: c.primitive_tests,
         };
-        self.stale = false;
+        self.uncovered_tests.clear();
         s.candidate_builds += 1;
         s.node_pairs += c.node_pairs;
         s.proximity_tests += c.primitive_tests;
@@ -575,16 +600,34 @@ impl SelfQueries {
         Ok(())
     }
 
+    /// True when the last query of `kind` since the set was built tested
+    /// more than [`STALE_SHARE`] of a rebuild in part (b).
+    fn stale_for(&self, kind: Kind) -> bool {
+        let limit = STALE_SHARE * self.candidates.build_tests as f64;
+        self.uncovered_tests
+            .iter()
+            .any(|&(k, tests)| k == kind && tests as f64 > limit)
+    }
+
+    /// Records what part (b) of the query of `kind` just tested.
+    fn record_uncovered(&mut self, kind: Kind, tests: u64) {
+        match self.uncovered_tests.iter_mut().find(|(k, _)| *k == kind) {
+            Some(entry) => entry.1 = tests,
+            None => self.uncovered_tests.push((kind, tests)),
+        }
+    }
+
     /// The allowance of the candidate set for a query within `reach` at
-    /// `ends`, after rebuilding the set at `ends[0]` when it is stale or does
-    /// not reach that far; fits the displacement boxes.
+    /// `ends`, after rebuilding the set at `ends[0]` when it is stale for the
+    /// query's kind or does not reach that far; fits the displacement boxes.
     fn prepare(&mut self, ends: &[&[DVec3]], reach: f64, s: &mut FrameStats) -> Result<f64> {
         let fresh = |c: &Candidates| {
             ends.iter()
                 .map(|x| c.allowance(reach, magnitude(x)))
                 .try_fold(f64::INFINITY, |a, b| b.map(|b| a.min(b)))
         };
-        let allowance = match fresh(&self.candidates).filter(|_| !self.stale) {
+        let stale = self.stale_for(Kind::new(reach, ends.len()));
+        let allowance = match fresh(&self.candidates).filter(|_| !stale) {
             Some(a) => {
                 s.candidate_reuses += 1;
                 a
@@ -613,8 +656,8 @@ impl SelfQueries {
 
     /// Part (b) of a query (module doc): the traversal of the hierarchy as
     /// fitted now, boxes within `gap`, culled by motion, running `test` on
-    /// the pairs not covered. Marks the set stale when that cost a good share
-    /// of a rebuild.
+    /// the pairs not covered. Records its cost for the query's kind (`gap`
+    /// and the ends [`prepare`](Self::prepare) fitted).
     fn uncovered<T: Send>(
         &mut self,
         gap: f64,
@@ -622,7 +665,9 @@ impl SelfQueries {
         test: impl Fn(ElementPair) -> Option<T> + Sync,
         s: &mut FrameStats,
     ) -> Vec<T> {
+        let kind = Kind::new(gap, self.motion.ends);
         if self.all_covered(allowance) {
+            self.record_uncovered(kind, 0);
             return Vec::new();
         }
         let mesh = &*self.mesh;
@@ -641,14 +686,15 @@ impl SelfQueries {
         s.proximity_tests += c.primitive_tests;
         s.self_culls += c.self_culls;
         s.pair_culls += c.pair_culls;
-        self.stale |= c.primitive_tests as f64 > STALE_SHARE * self.candidates.build_tests as f64;
+        self.record_uncovered(kind, c.primitive_tests);
         found
     }
 
     /// Every vertex-triangle and edge-edge pair closer than `thickness` (> 0)
     /// at `x`: equal to [`BvhDetector`](super::hierarchy::BvhDetector)'s
     /// proximity. From the candidate set and the traversal of what it does not
-    /// cover (module doc); rebuilds the set at `x` when it is stale. Adds its
+    /// cover (module doc); rebuilds the set at `x` first when it is stale for
+    /// this distance (module doc). Adds its
     /// work to `s`.
     pub fn proximity(
         &mut self,
@@ -723,8 +769,8 @@ impl SelfQueries {
     /// positions changed re-tests only the triangle pairs touching them
     /// (`repeat_continuous`); otherwise the answer
     /// comes from the candidate set and the swept traversal of what it does
-    /// not cover (module doc), rebuilding the set at `x0` when it is stale or
-    /// does not reach `thickness`. Adds its work to `s`.
+    /// not cover (module doc), rebuilding the set at `x0` when it is stale for
+    /// this thickness or does not reach it. Adds its work to `s`.
     pub fn continuous(
         &mut self,
         x0: &[DVec3],
