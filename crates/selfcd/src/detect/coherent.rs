@@ -313,46 +313,24 @@ impl Cull for MotionCull<'_> {
     }
 }
 
-/// Narrow phase of part (b): the fresh query's own visit of a leaf pair
-/// (`leaf`), unless every element pair of the two triangles is covered.
-struct Uncovered<'a, V> {
+/// Narrow phase of part (b): the fresh query's `test` on the owned element
+/// pairs of a leaf pair that are not covered.
+struct Uncovered<'a, F> {
+    mesh: &'a Mesh,
     motion: &'a Motion,
     allowance: f64,
-    leaf: &'a V,
+    test: F,
 }
 
-impl<V: LeafVisitor> LeafVisitor for Uncovered<'_, V> {
-    type Item = V::Item;
-    const SKIP_ADJACENT: bool = V::SKIP_ADJACENT;
+impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<'_, F> {
+    type Item = T;
+    const SKIP_ADJACENT: bool = false;
 
-    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<V::Item>) {
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<T>) {
         if self.motion.node_spread(a, b) < self.allowance {
             return; // every pair of the two triangles is covered
         }
-        self.leaf.visit(a, b, adjacent, out)
-    }
-}
-
-/// The continuous query's leaf visit: the time of impact of each owned
-/// element pair of a leaf pair (as the fresh swept query tests it).
-struct Swept<'a> {
-    mesh: &'a Mesh,
-    x0: &'a [DVec3],
-    x1: &'a [DVec3],
-    thickness: f64,
-}
-
-impl LeafVisitor for Swept<'_> {
-    type Item = Impact;
-    const SKIP_ADJACENT: bool = false;
-
-    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Impact>) {
-        let Swept { mesh, x0, x1, .. } = *self;
-        for_each_owned_pair(mesh, a, b, |p| {
-            let pair = p.canonical();
-            let toi = element_toi(mesh, x0, x1, pair, self.thickness);
-            out.extend(toi.map(|toi| Impact { pair, toi }))
-        });
+        for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
     }
 }
 
@@ -677,16 +655,16 @@ impl SelfQueries {
     }
 
     /// Part (b) of a query (module doc): the traversal of the hierarchy as
-    /// fitted now, boxes within `gap`, culled by motion, running the fresh
-    /// query's `leaf` visit on the leaf pairs not covered. Records its cost for the query's kind (`gap`
+    /// fitted now, boxes within `gap`, culled by motion, running `test` on
+    /// the pairs not covered. Records its cost for the query's kind (`gap`
     /// and the ends [`prepare`](Self::prepare) fitted).
-    fn uncovered<V: LeafVisitor>(
+    fn uncovered<T: Send>(
         &mut self,
         gap: f64,
         allowance: f64,
-        leaf: &V,
+        test: impl Fn(ElementPair) -> Option<T> + Sync,
         s: &mut FrameStats,
-    ) -> Vec<V::Item> {
+    ) -> Vec<T> {
         let kind = Kind::new(gap, self.motion.ends);
         if self.all_covered(allowance) {
             self.record_uncovered(kind, 0);
@@ -698,9 +676,10 @@ impl SelfQueries {
             allowance,
         };
         let visitor = Uncovered {
+            mesh,
             motion: &self.motion,
             allowance,
-            leaf,
+            test,
         };
         let (found, c) = traverse(&self.bvh, mesh, gap, &cull, &visitor);
         s.node_pairs += c.node_pairs;
@@ -737,7 +716,7 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let mut fresh = self.uncovered(thickness, allowance, &near, s);
+        let mut fresh = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
         let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
         s.candidates += (vt.len() + ee.len() + skin.len()) as u64;
@@ -826,13 +805,10 @@ impl SelfQueries {
         }
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let swept = Swept {
-            mesh: &mesh,
-            x0,
-            x1,
-            thickness,
+        let test = |p: ElementPair| {
+            element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
         };
-        let mut found = self.uncovered(thickness, allowance, &swept, s);
+        let mut found = self.uncovered(thickness, allowance, test, s);
         let c = &self.candidates;
         let (places, covered) = c.covered(&self.motion, thickness, allowance);
         // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
