@@ -100,31 +100,40 @@ pub enum Start<'a> {
     Front(&'a Front),
 }
 
-/// The jobs at which a traversal stopped, in its order (see the module doc).
-/// Valid for the hierarchy that recorded it only: it holds node ids.
+/// The jobs at which a traversal stopped, in its order (see the module doc),
+/// in chunks: one parallel task each, whose jobs' own front is the next
+/// front's chunk (no copy into one list). Valid for the hierarchy that
+/// recorded it only: it holds node ids.
 #[derive(Debug, Clone, Default)]
 pub struct Front {
-    jobs: Vec<Job>,
+    chunks: Vec<Vec<Job>>,
+    len: usize,
 }
 
 impl Front {
+    fn new(chunks: Vec<Vec<Job>>) -> Front {
+        let len = chunks.iter().map(Vec::len).sum();
+        Front { chunks, len }
+    }
+
     /// Number of jobs.
     pub fn len(&self) -> usize {
-        self.jobs.len()
+        self.len
     }
 
     /// True when the traversal stopped nowhere below the root (a leaf root).
     pub fn is_empty(&self) -> bool {
-        self.jobs.is_empty()
+        self.len == 0
     }
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.jobs.capacity() * std::mem::size_of::<Job>()
+        let jobs: usize = self.chunks.iter().map(Vec::capacity).sum();
+        jobs * std::mem::size_of::<Job>()
     }
 }
 
-/// Front jobs per parallel task.
+/// Front jobs per chunk when recorded from the root.
 const FRONT_CHUNK: usize = 2048;
 /// How many front jobs ahead the boxes are prefetched.
 const FRONT_AHEAD: usize = 8;
@@ -211,22 +220,22 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         visitor,
         record: !matches!(start, Start::Root),
     };
-    let acc = match start {
-        Start::Front(front) => ctx.front_task(&front.jobs),
+    let (acc, front) = match start {
+        Start::Front(front) => {
+            let (mut acc, next) = ctx.front_task(&front.chunks);
+            acc.counters.front_jobs = front.len() as u64;
+            (acc, Some(Front::new(next)))
+        }
         Start::Root | Start::RootRecording => {
             // Spawn parallel tasks only where there is enough work to share.
             let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
-            ctx.self_task(bvh.root(), par_depth)
+            let mut acc = ctx.self_task(bvh.root(), par_depth);
+            let jobs = std::mem::replace(&mut acc.front, Chunks::new()).into_vec();
+            let chunks = jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect();
+            (acc, ctx.record.then(|| Front::new(chunks)))
         }
     };
-    let mut counters = acc.counters;
-    if let Start::Front(front) = start {
-        counters.front_jobs = front.len() as u64;
-    }
-    let front = ctx.record.then(|| Front {
-        jobs: acc.front.into_vec(),
-    });
-    (acc.items.into_vec(), counters, front)
+    (acc.items.into_vec(), acc.counters, front)
 }
 
 struct Ctx<'a, C, V> {
@@ -372,11 +381,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
     }
 
-    /// The jobs of a front, by chunks in parallel, each job run as the
-    /// descent runs it.
-    fn front_task(&self, jobs: &[Job]) -> Acc<V::Item, C::Scratch> {
-        let chunk = |jobs: &[Job]| {
+    /// The jobs of a front, a chunk per parallel task, each job run as the
+    /// descent runs it; returns what they found and the new front's chunks.
+    fn front_task(&self, chunks: &[Vec<Job>]) -> (Acc<V::Item, C::Scratch>, Vec<Vec<Job>>) {
+        let chunk = |jobs: &Vec<Job>| {
             let mut acc = Acc::new();
+            acc.front.last.reserve(jobs.len() + jobs.len() / 8);
             for (i, &job) in jobs.iter().enumerate() {
                 if let Some(&Job::Pair(a, b, _)) = jobs.get(i + FRONT_AHEAD) {
                     prefetch(&self.bvh.boxes[a as usize]);
@@ -386,8 +396,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             }
             acc
         };
-        let accs: Vec<_> = jobs.par_chunks(FRONT_CHUNK).map(chunk).collect();
-        accs.into_iter().fold(Acc::new(), Acc::join)
+        let mut accs: Vec<_> = chunks.par_iter().map(chunk).collect();
+        // A chunk's task joins nothing, so its whole front is `last`.
+        let next = accs.iter_mut().map(|a| std::mem::take(&mut a.front.last)).collect();
+        (accs.into_iter().fold(Acc::new(), Acc::join), next)
     }
 
     /// Sequential traversal from one job with the task's stack.
