@@ -398,7 +398,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         };
         let mut accs: Vec<_> = chunks.par_iter().map(chunk).collect();
         // A chunk's task joins nothing, so its whole front is `last`.
-        let next = accs.iter_mut().map(|a| std::mem::take(&mut a.front.last)).collect();
+        let next = accs
+            .iter_mut()
+            .map(|a| std::mem::take(&mut a.front.last))
+            .collect();
         (accs.into_iter().fold(Acc::new(), Acc::join), next)
     }
 
