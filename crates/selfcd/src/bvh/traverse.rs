@@ -220,22 +220,35 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         visitor,
         record: !matches!(start, Start::Root),
     };
-    let (acc, front) = match start {
-        Start::Front(front) => {
-            let (mut acc, next) = ctx.front_task(&front.chunks);
-            acc.counters.front_jobs = front.len() as u64;
-            (acc, Some(Front::new(next)))
-        }
+    let acc = match start {
+        Start::Front(front) => ctx.front_task(&front.chunks),
         Start::Root | Start::RootRecording => {
             // Spawn parallel tasks only where there is enough work to share.
             let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
-            let mut acc = ctx.self_task(bvh.root(), par_depth);
-            let jobs = std::mem::replace(&mut acc.front, Chunks::new()).into_vec();
-            let chunks = jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect();
-            (acc, ctx.record.then(|| Front::new(chunks)))
+            ctx.self_task(bvh.root(), par_depth)
         }
     };
-    (acc.items.into_vec(), acc.counters, front)
+    let Acc {
+        items,
+        front,
+        mut counters,
+        ..
+    } = acc;
+    let front = match start {
+        Start::Root => None,
+        Start::RootRecording => {
+            let jobs = front.into_vec();
+            Some(Front::new(
+                jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect(),
+            ))
+        }
+        Start::Front(kept) => {
+            counters.front_jobs = kept.len() as u64;
+            // Each chunk's task gave one chunk of the new front.
+            Some(Front::new(front.into_chunks()))
+        }
+    };
+    (items.into_vec(), counters, front)
 }
 
 struct Ctx<'a, C, V> {
@@ -282,6 +295,12 @@ impl<T> Chunks<T> {
         if !self.last.is_empty() {
             self.done.push(std::mem::take(&mut self.last));
         }
+    }
+
+    /// The chunks, in order (none empty).
+    fn into_chunks(mut self) -> Vec<Vec<T>> {
+        self.flush();
+        self.done
     }
 
     /// Every element, in order, in one vector.
@@ -382,8 +401,9 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     }
 
     /// The jobs of a front, a chunk per parallel task, each job run as the
-    /// descent runs it; returns what they found and the new front's chunks.
-    fn front_task(&self, chunks: &[Vec<Job>]) -> (Acc<V::Item, C::Scratch>, Vec<Vec<Job>>) {
+    /// descent runs it; the tasks' fronts are the new front's chunks (a
+    /// chunk's task joins nothing, so its whole front is one).
+    fn front_task(&self, chunks: &[Vec<Job>]) -> Acc<V::Item, C::Scratch> {
         let chunk = |jobs: &Vec<Job>| {
             let mut acc = Acc::new();
             acc.front.last.reserve(jobs.len() + jobs.len() / 8);
@@ -396,13 +416,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             }
             acc
         };
-        let mut accs: Vec<_> = chunks.par_iter().map(chunk).collect();
-        // A chunk's task joins nothing, so its whole front is `last`.
-        let next = accs
-            .iter_mut()
-            .map(|a| std::mem::take(&mut a.front.last))
-            .collect();
-        (accs.into_iter().fold(Acc::new(), Acc::join), next)
+        let accs: Vec<_> = chunks.par_iter().map(chunk).collect();
+        accs.into_iter().fold(Acc::new(), Acc::join)
     }
 
     /// Sequential traversal from one job with the task's stack.
