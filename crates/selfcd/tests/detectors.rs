@@ -488,6 +488,30 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
     assert!(reused > 10_000, "reused {reused}, fresh {fresh}");
 }
 
+/// A front that grew past a quarter over its length when recorded from the
+/// root is recorded again from there: a flat sheet's front is its root
+/// (culled); crumpled, the descent from that root deepens it, so the next
+/// frame starts at the root again, and the one after from the new front.
+#[test]
+fn a_grown_front_is_recorded_again_from_the_root() {
+    let (mesh, crumpled) = crumpled_grid(21, 0.35, 0.4, 3);
+    let flat = mesh.rest().to_vec();
+    let mut d = new_detector(mesh.clone(), Method::BvhConesContour, &Default::default()).unwrap();
+    let jobs: Vec<u64> = [&flat, &flat, &flat, &crumpled, &crumpled, &crumpled]
+        .iter()
+        .map(|p| {
+            let got = d.detect(p).unwrap();
+            assert_eq!(got.pairs, detect(&mesh, Method::Brute, p, 0.0).pairs);
+            got.stats.front_jobs
+        })
+        .collect();
+    // Frame 1 records nothing, frame 2 records from the root (one job: the
+    // root, culled), frames 3 and 4 start there, frame 5 is recorded from
+    // the root again and frame 6 starts from that.
+    assert_eq!(jobs[..5], [0, 0, 1, 1, 0], "{jobs:?}");
+    assert!(jobs[5] > 100, "{jobs:?}");
+}
+
 /// `bvh-cones` is not conservative: from a kept front it still reports only
 /// intersecting pairs, but not always the ones a traversal from the root
 /// reports (pair descents split the node with the larger box this frame, so
