@@ -30,10 +30,12 @@
 //! descent from the root reached. The next frame of a sequence may start
 //! from them instead of the root ([`Start::Front`]): each job is tested as
 //! the descent tests it, and a job that no longer stops is descended from.
-//! Every cull is valid at any depth, so the visitor sees every leaf pair
-//! the root's descent would test, possibly more (a job below a node that is
-//! culled again now is still run); the answer is the same, and the jobs
-//! above the front are not redone. The front only deepens, so the caller
+//! The jobs still cover every leaf pair, and a conservative cull is valid
+//! at any depth, so the answer is the root's (the leaf pairs tested may
+//! differ: a job below a node that is culled again now is still run, and
+//! pair descents split by this frame's boxes), without redoing the jobs
+//! above the front. A cull that is not conservative (`bvh-cones`) may hide
+//! other pairs than from the root. The front only deepens, so the caller
 //! records a new one from the root when it has grown.
 //!
 //! Top levels run in parallel with `rayon::join` (a front, by chunks); each
