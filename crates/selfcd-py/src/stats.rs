@@ -31,6 +31,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("certificates_reused", U(s.certificates_reused)),
         ("slab_culls", U(s.slab_culls)),
         ("adjacent_skips", U(s.adjacent_skips)),
+        ("front_jobs", U(s.front_jobs)),
         ("primitive_tests", U(s.primitive_tests)),
         ("filter_decisions", U(s.filter_decisions)),
         ("proximity_tests", U(s.proximity_tests)),

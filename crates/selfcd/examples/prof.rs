@@ -13,7 +13,9 @@
 //! when the detector's policy says so (`BvhDetector::force_slabs`);
 //! `PROF_WAVE=1` detects on a sequence of four frames cycled (the frame
 //! plus a wave of 0.05 mean edges, wavelength 16 mean edges, phase 0.7 k:
-//! the per-frame sequence of `scripts/bench_peers.py`) instead of one. The
+//! the per-frame sequence of `scripts/bench_peers.py`) instead of one;
+//! `PROF_WAVE=drift` on one frame per repetition, the wave's phase moving
+//! as before and its wavelength growing 2% a frame (no frame repeats). The
 //! first detection (refit + traverse) is reported apart from the best: it
 //! also computes the patches the contour test needs (a one-shot query is
 //! build + first detection).
@@ -74,12 +76,16 @@ fn main() {
         println!("{n} triangles: best build {:.2} ms", build * 1e3);
         return;
     }
-    let frames = if std::env::var("PROF_WAVE").is_ok_and(|x| x == "1") {
+    let wave = std::env::var("PROF_WAVE").unwrap_or_default();
+    let frames = if wave == "1" || wave == "drift" {
         let e = mesh.mean_edge_length();
-        let k = std::f64::consts::TAU / (16.0 * e);
-        (0..4)
+        let drift = wave == "drift";
+        (0..if drift { reps } else { 4 })
             .map(|f| {
                 let ph = 0.7 * f as f64;
+                // Drifting: the wavelength grows 2% a frame, so no frame repeats.
+                let k = std::f64::consts::TAU
+                    / (16.0 * e * if drift { 1.0 + 0.02 * f as f64 } else { 1.0 });
                 p.iter()
                     .map(|x| {
                         let s = |a: f64, o: f64| (k * a + ph + o).sin();
@@ -101,7 +107,7 @@ fn main() {
         }
         if each {
             println!(
-                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}",
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}, self culls {}, pair culls {}, adjacent skips {}, front jobs {}",
                 s.refit_time * 1e3,
                 s.traverse_time * 1e3,
                 s.contour_tests,
@@ -109,7 +115,11 @@ fn main() {
                 s.primitive_tests,
                 s.filter_decisions,
                 s.slab_culls,
-                s.node_pairs
+                s.node_pairs,
+                s.self_culls,
+                s.pair_culls,
+                s.adjacent_skips,
+                s.front_jobs
             );
         }
         refit = refit.min(s.refit_time);

@@ -27,6 +27,10 @@ pub struct FrameStats {
     pub slab_culls: u64,
     /// Leaf pairs skipped because the triangles share a vertex.
     pub adjacent_skips: u64,
+    /// Traversal jobs started from the front kept from an earlier frame
+    /// (reused work: the descent from the root down to them was skipped;
+    /// [`crate::bvh::traverse::Front`]); 0 when the traversal began at the root.
+    pub front_jobs: u64,
     /// Triangle-triangle tests run: the paper's polygon-polygon checks.
     pub primitive_tests: u64,
     /// Of those, the pairs the floating-point filter proved apart without the
@@ -88,6 +92,8 @@ pub struct Counters {
     pub slab_culls: u64,
     /// See [`FrameStats::adjacent_skips`].
     pub adjacent_skips: u64,
+    /// See [`FrameStats::front_jobs`].
+    pub front_jobs: u64,
     /// See [`FrameStats::primitive_tests`].
     pub primitive_tests: u64,
     /// See [`FrameStats::filter_decisions`].
@@ -105,6 +111,7 @@ impl Counters {
         self.certificates_reused += o.certificates_reused;
         self.slab_culls += o.slab_culls;
         self.adjacent_skips += o.adjacent_skips;
+        self.front_jobs += o.front_jobs;
         self.primitive_tests += o.primitive_tests;
         self.filter_decisions += o.filter_decisions;
     }
@@ -119,6 +126,7 @@ impl Counters {
         s.certificates_reused += self.certificates_reused;
         s.slab_culls += self.slab_culls;
         s.adjacent_skips += self.adjacent_skips;
+        s.front_jobs += self.front_jobs;
         s.primitive_tests += self.primitive_tests;
         s.filter_decisions += self.filter_decisions;
     }
@@ -133,6 +141,7 @@ impl Counters {
         s.certificates_reused = self.certificates_reused;
         s.slab_culls = self.slab_culls;
         s.adjacent_skips = self.adjacent_skips;
+        s.front_jobs = self.front_jobs;
         s.primitive_tests = self.primitive_tests;
         s.filter_decisions = self.filter_decisions;
     }

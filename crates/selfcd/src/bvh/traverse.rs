@@ -24,9 +24,23 @@
 //! children, or triangle): node ids are scattered, and that load was the
 //! descent's largest single cost (`crate::prefetch`).
 //!
-//! Top levels run in parallel with `rayon::join`; each task keeps its own
-//! results, counters and cull buffers, and the join order is fixed, so the
-//! output is the same for any number of threads.
+//! **Front.** A traversal may record its *front* ([`Front`]): the jobs at
+//! which it stopped (self-tests culled or done leaf by leaf; pairs found
+//! apart, culled or tested), which together cover every leaf pair the
+//! descent from the root reached. The next frame of a sequence may start
+//! from them instead of the root ([`Start::Front`]): each job is tested as
+//! the descent tests it, and a job that no longer stops is descended from.
+//! The jobs still cover every leaf pair, and a conservative cull is valid
+//! at any depth, so the answer is the root's (the leaf pairs tested may
+//! differ: a job below a node that is culled again now is still run, and
+//! pair descents split by this frame's boxes), without redoing the jobs
+//! above the front. A cull that is not conservative (`bvh-cones`) may hide
+//! other pairs than from the root. The front only deepens, so the caller
+//! records a new one from the root when it has grown.
+//!
+//! Top levels run in parallel with `rayon::join` (a front, by chunks); each
+//! task keeps its own results, counters and cull buffers, and the join order
+//! is fixed, so the output is the same for any number of threads.
 
 use super::certify::{BoxesOnly, ConeCull, ContourCull, Cull};
 use super::Bvh;
@@ -34,6 +48,7 @@ use crate::mesh::Mesh;
 use crate::prefetch::prefetch;
 use crate::stats::Counters;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Slabs are compared only for cone axes closer than this cosine (about 45
 /// degrees either way): beyond, a slab carried to the other axis is about as
@@ -75,6 +90,56 @@ pub trait LeafVisitor: Sync {
     }
 }
 
+/// Where a traversal starts, and whether it records its front.
+#[derive(Debug, Clone, Copy)]
+pub enum Start<'a> {
+    /// At the root, recording nothing (a single query).
+    Root,
+    /// At the root, recording the front.
+    RootRecording,
+    /// At the jobs of a front an earlier traversal of the same hierarchy
+    /// recorded, recording the new front.
+    Front(&'a Front),
+}
+
+/// The jobs at which a traversal stopped, in its order (see the module doc),
+/// in chunks: one parallel task each, whose jobs' own front is the next
+/// front's chunk (no copy into one list). Valid for the hierarchy that
+/// recorded it only: it holds node ids.
+#[derive(Debug, Clone, Default)]
+pub struct Front {
+    chunks: Vec<Vec<Job>>,
+    len: usize,
+}
+
+impl Front {
+    fn new(chunks: Vec<Vec<Job>>) -> Front {
+        let len = chunks.iter().map(Vec::len).sum();
+        Front { chunks, len }
+    }
+
+    /// Number of jobs.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when the traversal stopped nowhere below the root (a leaf root).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        let jobs: usize = self.chunks.iter().map(Vec::capacity).sum();
+        jobs * std::mem::size_of::<Job>()
+    }
+}
+
+/// Front jobs per chunk when recorded from the root.
+const FRONT_CHUNK: usize = 2048;
+/// How many front jobs ahead the boxes are prefetched.
+const FRONT_AHEAD: usize = 8;
+
 /// Runs the self-traversal of `bvh` (refitted to `positions`) with the
 /// culling `opts` ask for, and returns what the visitor reported, in a fixed
 /// order, with the work counters.
@@ -85,19 +150,32 @@ pub fn self_traverse<V: LeafVisitor>(
     opts: TraverseOptions,
     visitor: &V,
 ) -> (Vec<V::Item>, Counters) {
+    let (items, counters, _) = self_traverse_from(bvh, mesh, positions, opts, visitor, Start::Root);
+    (items, counters)
+}
+
+/// [`self_traverse`] from `start`; also returns the front when it records one.
+pub fn self_traverse_from<V: LeafVisitor>(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    positions: &[DVec3],
+    opts: TraverseOptions,
+    visitor: &V,
+    start: Start,
+) -> (Vec<V::Item>, Counters, Option<Front>) {
     let gap = opts.gap;
     match (opts.cones, opts.contour) {
-        (false, _) => traverse(bvh, mesh, gap, &BoxesOnly, visitor),
+        (false, _) => traverse_from(bvh, mesh, gap, &BoxesOnly, visitor, start),
         (true, false) => {
             let cull = ConeCull {
                 cones: &bvh.cones,
                 patches: &bvh.patches,
             };
-            traverse(bvh, mesh, gap, &cull, visitor)
+            traverse_from(bvh, mesh, gap, &cull, visitor, start)
         }
         (true, true) => {
             let cull = ContourCull::new(bvh, mesh, positions);
-            traverse(bvh, mesh, gap, &cull, visitor)
+            traverse_from(bvh, mesh, gap, &cull, visitor, start)
         }
     }
 }
@@ -112,6 +190,21 @@ pub fn traverse<C: Cull, V: LeafVisitor>(
     cull: &C,
     visitor: &V,
 ) -> (Vec<V::Item>, Counters) {
+    let (items, counters, _) = traverse_from(bvh, mesh, gap, cull, visitor, Start::Root);
+    (items, counters)
+}
+
+/// [`traverse`] from `start`; also returns the front when it records one
+/// (from [`Start::RootRecording`] and [`Start::Front`]). Starting from a
+/// front counts its jobs in [`Counters::front_jobs`].
+pub fn traverse_from<C: Cull, V: LeafVisitor>(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    gap: f64,
+    cull: &C,
+    visitor: &V,
+    start: Start,
+) -> (Vec<V::Item>, Counters, Option<Front>) {
     let ctx = Ctx {
         bvh,
         mesh,
@@ -127,12 +220,37 @@ pub fn traverse<C: Cull, V: LeafVisitor>(
             .flatten(),
         cull,
         visitor,
+        record: !matches!(start, Start::Root),
     };
-    // Spawn parallel tasks only where there is enough work to share.
-    let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
-    let acc = ctx.self_task(bvh.root(), par_depth);
-    let counters = acc.counters;
-    (acc.into_items(), counters)
+    let acc = match start {
+        Start::Front(front) => ctx.front_task(&front.chunks),
+        Start::Root | Start::RootRecording => {
+            // Spawn parallel tasks only where there is enough work to share.
+            let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
+            ctx.self_task(bvh.root(), par_depth)
+        }
+    };
+    let Acc {
+        items,
+        front,
+        mut counters,
+        ..
+    } = acc;
+    let front = match start {
+        Start::Root => None,
+        Start::RootRecording => {
+            let jobs = front.into_vec();
+            Some(Front::new(
+                jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect(),
+            ))
+        }
+        Start::Front(kept) => {
+            counters.front_jobs = kept.len() as u64;
+            // Each chunk's task gave one chunk of the new front.
+            Some(Front::new(front.into_chunks()))
+        }
+    };
+    (items.into_vec(), counters, front)
 }
 
 struct Ctx<'a, C, V> {
@@ -146,47 +264,49 @@ struct Ctx<'a, C, V> {
     slab_gap: Option<f64>,
     cull: &'a C,
     visitor: &'a V,
+    /// Keep the jobs at which the traversal stops ([`Front`]).
+    record: bool,
 }
 
-/// What one task found: its items in order (`done`'s chunks, then `items`),
-/// its counters and the cull's scratch. Joining tasks moves chunks, not
-/// items, so each item is copied once, into the final vector.
-struct Acc<T, S> {
-    items: Vec<T>,
+/// A list built by parallel tasks in a fixed order: `done`'s chunks, then
+/// `last`. Joining moves chunks, not elements, so each element is copied
+/// once, into the final vector.
+struct Chunks<T> {
+    last: Vec<T>,
     done: Vec<Vec<T>>,
-    counters: Counters,
-    scratch: S,
 }
 
-impl<T, S: Default> Acc<T, S> {
+impl<T> Chunks<T> {
     fn new() -> Self {
-        Acc {
-            items: Vec::new(),
+        Chunks {
+            last: Vec::new(),
             done: Vec::new(),
-            counters: Counters::default(),
-            scratch: S::default(),
         }
     }
 
-    /// This task's items, then `o`'s.
-    fn join(mut self, o: Acc<T, S>) -> Self {
+    /// This list, then `o`'s.
+    fn join(&mut self, o: Chunks<T>) {
         self.flush();
         self.done.extend(o.done);
-        if !o.items.is_empty() {
-            self.done.push(o.items);
+        if !o.last.is_empty() {
+            self.done.push(o.last);
         }
-        self.counters.add(&o.counters);
-        self
     }
 
     fn flush(&mut self) {
-        if !self.items.is_empty() {
-            self.done.push(std::mem::take(&mut self.items));
+        if !self.last.is_empty() {
+            self.done.push(std::mem::take(&mut self.last));
         }
     }
 
-    /// Every item, in order, in one vector.
-    fn into_items(mut self) -> Vec<T> {
+    /// The chunks, in order (none empty).
+    fn into_chunks(mut self) -> Vec<Vec<T>> {
+        self.flush();
+        self.done
+    }
+
+    /// Every element, in order, in one vector.
+    fn into_vec(mut self) -> Vec<T> {
         self.flush();
         if self.done.len() == 1 {
             return self.done.pop().unwrap_or_default();
@@ -197,8 +317,38 @@ impl<T, S: Default> Acc<T, S> {
     }
 }
 
+/// What one task found: its items and front jobs in order, its counters,
+/// the cull's scratch and the descent's stack.
+struct Acc<T, S> {
+    items: Chunks<T>,
+    front: Chunks<Job>,
+    counters: Counters,
+    scratch: S,
+    stack: Vec<Job>,
+}
+
+impl<T, S: Default> Acc<T, S> {
+    fn new() -> Self {
+        Acc {
+            items: Chunks::new(),
+            front: Chunks::new(),
+            counters: Counters::default(),
+            scratch: S::default(),
+            stack: Vec::new(),
+        }
+    }
+
+    /// This task's items and front, then `o`'s.
+    fn join(mut self, o: Acc<T, S>) -> Self {
+        self.items.join(o.items);
+        self.front.join(o.front);
+        self.counters.add(&o.counters);
+        self
+    }
+}
+
 /// A stack entry: a self-test, a pair of siblings, or any other pair.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 enum Job {
     Node(u32),
     Pair(u32, u32, bool),
@@ -211,7 +361,11 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             self.run(Job::Node(n), &mut acc);
             return acc;
         }
-        if self.bvh.is_leaf(n) || self.self_culled(n, &mut acc) {
+        if self.bvh.is_leaf(n) {
+            return acc;
+        }
+        if self.self_culled(n, &mut acc) {
+            self.stop(Job::Node(n), &mut acc);
             return acc;
         }
         let [l, r] = self.bvh.children_of(n);
@@ -234,7 +388,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             return acc;
         }
         match self.pair_step(a, b, siblings, &mut acc) {
-            None => acc,
+            None => {
+                self.stop(Job::Pair(a, b, siblings), &mut acc);
+                acc
+            }
             Some((keep, [x, y])) => {
                 let (p, q) = rayon::join(
                     || self.pair_task(keep, x, false, depth - 1),
@@ -245,29 +402,64 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
     }
 
-    /// Sequential traversal from one task with an explicit stack.
+    /// The jobs of a front, a chunk per parallel task, each job run as the
+    /// descent runs it; the tasks' fronts are the new front's chunks (a
+    /// chunk's task joins nothing, so its whole front is one).
+    fn front_task(&self, chunks: &[Vec<Job>]) -> Acc<V::Item, C::Scratch> {
+        let chunk = |jobs: &Vec<Job>| {
+            let mut acc = Acc::new();
+            acc.front.last.reserve(jobs.len() + jobs.len() / 8);
+            for (i, &job) in jobs.iter().enumerate() {
+                if let Some(&Job::Pair(a, b, _)) = jobs.get(i + FRONT_AHEAD) {
+                    prefetch(&self.bvh.boxes[a as usize]);
+                    prefetch(&self.bvh.boxes[b as usize]);
+                }
+                self.run(job, &mut acc);
+            }
+            acc
+        };
+        let accs: Vec<_> = chunks.par_iter().map(chunk).collect();
+        accs.into_iter().fold(Acc::new(), Acc::join)
+    }
+
+    /// Sequential traversal from one job with the task's stack.
     fn run(&self, job: Job, acc: &mut Acc<V::Item, C::Scratch>) {
-        let mut stack = vec![job];
+        let mut stack = std::mem::take(&mut acc.stack);
+        stack.push(job);
         while let Some(job) = stack.pop() {
             match job {
                 Job::Node(n) => {
-                    if !self.bvh.is_leaf(n) && !self.self_culled(n, acc) {
-                        if n < self.small_end {
-                            self.small_self(n, acc);
-                            continue;
-                        }
+                    if self.bvh.is_leaf(n) {
+                        continue;
+                    }
+                    if self.self_culled(n, acc) {
+                        self.stop(job, acc);
+                    } else if n < self.small_end {
+                        self.small_self(n, acc);
+                        self.stop(job, acc);
+                    } else {
                         let [l, r] = self.bvh.children_of(n);
                         stack.extend([Job::Pair(l, r, true), Job::Node(r), Job::Node(l)]);
                     }
                 }
-                Job::Pair(a, b, siblings) => {
-                    if let Some((keep, [x, y])) = self.pair_step(a, b, siblings, acc) {
+                Job::Pair(a, b, siblings) => match self.pair_step(a, b, siblings, acc) {
+                    Some((keep, [x, y])) => {
                         self.prefetch_node(y);
                         self.prefetch_node(x);
                         stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
                     }
-                }
+                    None => self.stop(job, acc),
+                },
             }
+        }
+        acc.stack = stack;
+    }
+
+    /// The traversal stopped at `job`: a front job, when recording.
+    #[inline]
+    fn stop(&self, job: Job, acc: &mut Acc<V::Item, C::Scratch>) {
+        if self.record {
+            acc.front.last.push(job);
         }
     }
 
@@ -305,7 +497,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             a.min(b),
             a.max(b),
             adjacent,
-            &mut acc.items,
+            &mut acc.items.last,
             &mut acc.counters,
         );
     }

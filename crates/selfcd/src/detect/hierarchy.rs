@@ -4,7 +4,7 @@ use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACT
 use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
 use crate::bvh::kept::{KeptCertificates, Reuse};
-use crate::bvh::traverse::{self_traverse, traverse, TraverseOptions};
+use crate::bvh::traverse::{self_traverse_from, traverse_from, Front, Start, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
 use crate::mesh::Mesh;
@@ -14,9 +14,11 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// A BVH built once for the mesh, refitted and traversed each frame.
-/// `bvh-cones-contour` keeps its contour certificates from frame to frame
-/// ([`crate::bvh::kept`]) from the second [`Detector::detect`] call on (a
-/// single call, as a one-shot query makes, pays nothing for them).
+/// From the second [`Detector::detect`] call on (a single call, as a
+/// one-shot query makes, pays nothing for them) the detector keeps, from
+/// frame to frame, the intersection traversal's front
+/// ([`crate::bvh::traverse::Front`]) and, for `bvh-cones-contour`, its
+/// contour certificates ([`crate::bvh::kept`]).
 pub struct BvhDetector {
     mesh: Arc<Mesh>,
     bvh: Bvh,
@@ -26,6 +28,34 @@ pub struct BvhDetector {
     kept: Option<KeptCertificates>,
     frames: u64,
     slabs: SlabPolicy,
+    front: Option<KeptFront>,
+}
+
+/// The intersection traversal's front, and its length when last recorded
+/// from the root.
+#[derive(Debug)]
+struct KeptFront {
+    front: Front,
+    from_root: usize,
+}
+
+/// The front is recorded again from the root once it has grown past this
+/// many times its length when last recorded there: it only deepens (a job
+/// below a node that is culled again is still run), and a deeper front costs
+/// more than the jobs above it.
+const FRONT_GROWTH: f64 = 1.25;
+
+impl KeptFront {
+    /// Where this frame's traversal starts: the kept front while it has not
+    /// grown too much, else the root (recording).
+    fn start(kept: Option<&KeptFront>) -> Start<'_> {
+        match kept {
+            Some(k) if k.front.len() as f64 <= FRONT_GROWTH * k.from_root as f64 => {
+                Start::Front(&k.front)
+            }
+            _ => Start::RootRecording,
+        }
+    }
 }
 
 /// When a detector fits slabs ([`Bvh::fit_slabs`]). They cull node pairs
@@ -78,6 +108,7 @@ impl BvhDetector {
             kept: None,
             frames: 0,
             slabs: SlabPolicy::default(),
+            front: None,
         }
     }
 
@@ -114,12 +145,19 @@ impl BvhDetector {
     /// distance). Fills every field but the refit and sensor times.
     /// Errors: more proximity contacts than `max_contacts` ([`crate::Error::TooManyContacts`]).
     pub fn traverse(&self, positions: &[DVec3]) -> Result<Detection> {
-        self.traverse_with(positions, None)
+        self.traverse_with(positions, None, Start::Root)
+            .map(|(det, _)| det)
     }
 
-    /// [`traverse`](Self::traverse), the contour cull reusing kept
-    /// certificates through `reuse` when given.
-    fn traverse_with(&self, positions: &[DVec3], reuse: Option<&Reuse>) -> Result<Detection> {
+    /// [`traverse`](Self::traverse) from `start` (returning the front when
+    /// it records one), the contour cull reusing kept certificates through
+    /// `reuse` when given.
+    fn traverse_with(
+        &self,
+        positions: &[DVec3],
+        reuse: Option<&Reuse>,
+        start: Start,
+    ) -> Result<(Detection, Option<Front>)> {
         let t0 = Instant::now();
         let mesh = &*self.mesh;
         let opts = TraverseOptions {
@@ -128,12 +166,12 @@ impl BvhDetector {
             gap: 0.0,
         };
         let visitor = Intersect { mesh, positions };
-        let (mut pairs, counters) = match reuse {
+        let (mut pairs, counters, front) = match reuse {
             Some(r) => {
                 let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r);
-                traverse(&self.bvh, mesh, 0.0, &cull, &visitor)
+                traverse_from(&self.bvh, mesh, 0.0, &cull, &visitor, start)
             }
-            None => self_traverse(&self.bvh, mesh, positions, opts, &visitor),
+            None => self_traverse_from(&self.bvh, mesh, positions, opts, &visitor, start),
         };
         pairs.sort_unstable();
         let mut det = Detection {
@@ -148,7 +186,8 @@ impl BvhDetector {
                 contour: false,
                 gap: self.thickness,
             };
-            let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
+            let (items, c, _) =
+                self_traverse_from(&self.bvh, mesh, positions, opts, &near, Start::Root);
             near.check_output()?;
             det.proximity = collect_proximity(items);
             proximity = c;
@@ -160,7 +199,7 @@ impl BvhDetector {
         s.proximity_tests = proximity.primitive_tests;
         s.traverse_time = t0.elapsed().as_secs_f64();
         det.count_contacts();
-        Ok(det)
+        Ok((det, front))
     }
 
     /// Sets the limit on proximity contacts (default [`DEFAULT_MAX_CONTACTS`]).
@@ -192,13 +231,25 @@ impl BvhDetector {
         };
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
-        let det = self.traverse_with(positions, reuse.as_ref());
+        let start = match self.frames {
+            1 => Start::Root,
+            _ => KeptFront::start(self.front.as_ref()),
+        };
+        let from_root = !matches!(start, Start::Front(_));
+        let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
             k.keep(fresh.unwrap_or_default());
             self.kept = Some(k);
         }
-        let mut det = det?;
+        let (mut det, front) = det?;
+        if let Some(front) = front {
+            let from_root = match (&self.front, from_root) {
+                (Some(k), false) => k.from_root,
+                _ => front.len(),
+            };
+            self.front = Some(KeptFront { front, from_root });
+        }
         det.stats.refit_time = refit_time;
         Ok(det)
     }
