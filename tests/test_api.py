@@ -88,6 +88,20 @@ def test_crumpled_cloth_animation_keeps_matching_brute(seed: int) -> None:
     assert seen_contact
 
 
+def test_any_memory_order_gives_the_same_answers(rng: np.random.Generator) -> None:
+    """Fortran-order arrays (a transpose's) reach the engine without a copy
+    and are read by columns; strided ones are copied. Every layout must give
+    the C-order answers, also through `_core` directly."""
+    V, F, P = noisy_grid(rng, 10, 0.3)
+    want = selfcd.Detector(selfcd.Mesh(V, F)).detect(P)
+    assert len(want) > 0
+    for arr in (np.asfortranarray(P), np.ascontiguousarray(P.T).T, np.repeat(P, 2, axis=0)[::2]):
+        assert np.array_equal(selfcd.Detector(selfcd.Mesh(V, F)).detect(arr), want)
+        mesh = selfcd._core.Mesh(arr, np.asfortranarray(F))
+        assert np.array_equal(mesh.vertices, P) and np.array_equal(mesh.faces, F)
+    assert np.array_equal(selfcd.self_intersections(np.asfortranarray(P), np.asfortranarray(F)), want)
+
+
 def test_last_stats_has_every_counter(rng: np.random.Generator) -> None:
     V, F, P = noisy_grid(rng, 11, 0.3)
     det = selfcd.Detector(selfcd.Mesh(V, F), "bvh")

@@ -83,10 +83,10 @@ class Mesh:
 
     def _positions(self, value: npt.ArrayLike, name: str = "positions") -> np.ndarray:
         """(n, 3) positions of this mesh; for a welded mesh, positions of the input's vertices are mapped."""
-        arr = _arrays.points(value, name)
+        arr = _arrays.coordinates(value, name)
         if self._source is not None and len(arr) == self._n_input and len(arr) != self.n_vertices:
             arr = arr[self._source]
-        return _arrays.points(arr, name, self.n_vertices)
+        return _arrays.coordinates(arr, name, self.n_vertices)
 
     def _frames(self, value: npt.ArrayLike) -> np.ndarray:
         """(f, n, 3) frames of this mesh, mapped like `_positions`."""

@@ -30,8 +30,10 @@ def _check_n3(arr: np.ndarray, name: str, rows: str) -> None:
         raise ValueError(f"{name} must have shape ({rows}, 3), got {arr.shape}")
 
 
-def points(value: npt.ArrayLike, name: str = "vertices", n: int | None = None) -> np.ndarray:
-    """An (n,3) float64 C-contiguous array of coordinates.
+def coordinates(value: npt.ArrayLike, name: str = "positions", n: int | None = None) -> np.ndarray:
+    """An (n,3) float64 array of coordinates in C or Fortran order (the
+    engine reads both in one pass, so a transposed array is not copied here);
+    any other layout or dtype is copied to C order.
 
     Non-finite values are left for the engine, which names the vertex.
     """
@@ -39,7 +41,14 @@ def points(value: npt.ArrayLike, name: str = "vertices", n: int | None = None) -
     _check_n3(arr, name, "n")
     if n is not None and arr.shape[0] != n:
         raise ValueError(f"{name} has {arr.shape[0]} vertices, the mesh has {n}")
+    if arr.dtype == np.float64 and (arr.flags.c_contiguous or arr.flags.f_contiguous):
+        return arr
     return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def points(value: npt.ArrayLike, name: str = "vertices", n: int | None = None) -> np.ndarray:
+    """An (n,3) float64 C-contiguous array of coordinates (see `coordinates`)."""
+    return np.ascontiguousarray(coordinates(value, name, n))
 
 
 def faces(value: npt.ArrayLike, name: str = "faces") -> np.ndarray:

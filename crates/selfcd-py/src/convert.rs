@@ -18,15 +18,28 @@ fn check_cols(shape: &[usize], what: &str) -> PyResult<()> {
     Ok(())
 }
 
-/// An (n,3) float64 array as points.
+/// An (n,3) float64 array as points, in any memory order (C order, the
+/// common case, and Fortran order, a transpose's, read in one pass each).
 pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DVec3>> {
     check_cols(a.shape(), what)?;
-    if let Ok(flat) = a.as_slice() {
-        // C order, the common case: one pass over the buffer.
+    // (`as_slice` also gives a Fortran-order array's memory: check the order.)
+    if let Some(flat) = a.as_slice().ok().filter(|_| a.is_c_contiguous()) {
         let p = flat.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2]));
         return Ok(p.collect());
     }
-    Ok(a.as_array()
+    let view = a.as_array();
+    if let Some(cols) = view.t().as_slice() {
+        // Fortran order: the x, y and z columns one after another.
+        let (x, rest) = cols.split_at(view.nrows());
+        let (y, z) = rest.split_at(view.nrows());
+        let p = x
+            .iter()
+            .zip(y)
+            .zip(z)
+            .map(|((&x, &y), &z)| DVec3::new(x, y, z));
+        return Ok(p.collect());
+    }
+    Ok(view
         .rows()
         .into_iter()
         .map(|r| DVec3::new(r[0], r[1], r[2]))
@@ -41,7 +54,7 @@ pub fn triples(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 
 /// An (m,3) int64 array as triangles; negative or too-large indices are named.
 pub fn triangles(a: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
     check_cols(a.shape(), "faces")?;
-    if let Ok(flat) = a.as_slice() {
+    if let Some(flat) = a.as_slice().ok().filter(|_| a.is_c_contiguous()) {
         // C order, the common case: one pass over the buffer.
         let fits = flat.iter().all(|&i| u32::try_from(i).is_ok());
         if fits {
