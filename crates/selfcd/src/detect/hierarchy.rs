@@ -4,7 +4,9 @@ use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACT
 use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
 use crate::bvh::kept::{KeptCertificates, Reuse};
-use crate::bvh::traverse::{self_traverse_from, traverse_from, Front, Start, TraverseOptions};
+use crate::bvh::traverse::{
+    self_traverse, self_traverse_from, traverse_from, Front, Start, TraverseOptions,
+};
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
 use crate::mesh::Mesh;
@@ -186,8 +188,7 @@ impl BvhDetector {
                 contour: false,
                 gap: self.thickness,
             };
-            let (items, c, _) =
-                self_traverse_from(&self.bvh, mesh, positions, opts, &near, Start::Root);
+            let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
             near.check_output()?;
             det.proximity = collect_proximity(items);
             proximity = c;
