@@ -109,29 +109,17 @@ pub enum Start<'a> {
 #[derive(Debug, Clone, Default)]
 pub struct Front {
     chunks: Vec<Vec<Job>>,
-    len: usize,
 }
 
 impl Front {
-    fn new(chunks: Vec<Vec<Job>>) -> Front {
-        let len = chunks.iter().map(Vec::len).sum();
-        Front { chunks, len }
-    }
-
     /// Number of jobs.
     pub fn len(&self) -> usize {
-        self.len
+        self.chunks.iter().map(Vec::len).sum()
     }
 
     /// True when the traversal stopped nowhere below the root (a leaf root).
     pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Bytes held.
-    pub fn memory_bytes(&self) -> usize {
-        let jobs: usize = self.chunks.iter().map(Vec::capacity).sum();
-        jobs * std::mem::size_of::<Job>()
+        self.chunks.iter().all(Vec::is_empty)
     }
 }
 
@@ -240,14 +228,16 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         Start::Root => None,
         Start::RootRecording => {
             let jobs = front.into_vec();
-            Some(Front::new(
-                jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect(),
-            ))
+            Some(Front {
+                chunks: jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect(),
+            })
         }
         Start::Front(kept) => {
             counters.front_jobs = kept.len() as u64;
             // Each chunk's task gave one chunk of the new front.
-            Some(Front::new(front.into_chunks()))
+            Some(Front {
+                chunks: front.into_chunks(),
+            })
         }
     };
     (items.into_vec(), counters, front)
@@ -411,6 +401,9 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             acc.front.last.reserve(jobs.len() + jobs.len() / 8);
             for (i, &job) in jobs.iter().enumerate() {
                 if let Some(&Job::Pair(a, b, _)) = jobs.get(i + FRONT_AHEAD) {
+                    // Boxes only: most front jobs stop at their boxes, and
+                    // `prefetch_node`'s children too made the crumpled grid
+                    // 9% slower.
                     prefetch(&self.bvh.boxes[a as usize]);
                     prefetch(&self.bvh.boxes[b as usize]);
                 }
