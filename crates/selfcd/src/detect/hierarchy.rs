@@ -214,9 +214,11 @@ impl BvhDetector {
         self.mesh.check_positions(positions)?;
         let t0 = Instant::now();
         self.frames += 1;
-        // From the second frame on, the contour cull keeps its certificates;
+        // From the second frame on (a sequence, not a single query) the
+        // traversal keeps its front and the contour cull its certificates;
         // their displacement boxes are fitted with the refit, and timed with it.
-        let keeps = self.method == Method::BvhConesContour && self.frames >= 2;
+        let sequence = self.frames >= 2;
+        let keeps = self.method == Method::BvhConesContour && sequence;
         let cap = KEPT_CAP * self.mesh.mean_edge_length();
         let mut kept = keeps.then(|| {
             self.kept
@@ -232,11 +234,12 @@ impl BvhDetector {
         };
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
-        let start = match self.frames {
-            1 => Start::Root,
-            _ => KeptFront::start(self.front.as_ref()),
+        let start = if sequence {
+            KeptFront::start(self.front.as_ref())
+        } else {
+            Start::Root
         };
-        let from_root = !matches!(start, Start::Front(_));
+        let from_kept = matches!(start, Start::Front(_));
         let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
@@ -245,8 +248,8 @@ impl BvhDetector {
         }
         let (mut det, front) = det?;
         if let Some(front) = front {
-            let from_root = match (&self.front, from_root) {
-                (Some(k), false) => k.from_root,
+            let from_root = match self.front.take() {
+                Some(k) if from_kept => k.from_root,
                 _ => front.len(),
             };
             self.front = Some(KeptFront { front, from_root });
