@@ -712,14 +712,8 @@ mod tests {
 
     #[test]
     fn three_compare_exchanges_sort_up_to_three() {
-        for row in [
-            vec![],
-            vec![5],
-            vec![7, 2],
-            vec![2, 7],
-            vec![3, 1, 2],
-            vec![2, 3, 1],
-        ] {
+        // Rows of three: every order, below.
+        for row in [vec![], vec![5], vec![7, 2], vec![2, 7]] {
             let mut want = row.clone();
             want.sort_unstable();
             let mut got = row;
