@@ -94,12 +94,19 @@ fn key(a: u32, b: u32) -> u64 {
 }
 
 /// Half the diagonal of a box of displacements: the farthest any of its
-/// points is from its centre, plus the rounding of the displacements
-/// (each coordinate within 2^-53 of its own size) and of this sum.
+/// points is from its centre, with its rounding ([`with_rounding`]).
 #[inline]
 fn half_diagonal(b: &Aabb) -> f64 {
+    with_rounding(0.5 * (b.max - b.min).length(), b)
+}
+
+/// Distance `r` computed from displacement box `b`, padded by the rounding
+/// of the displacements (each coordinate within 2^-53 of its own size) and
+/// of this sum.
+#[inline]
+fn with_rounding(r: f64, b: &Aabb) -> f64 {
     let size = b.min.abs().max(b.max.abs()).max_element();
-    (0.5 * (b.max - b.min).length() + 1e-15 * size) * (1.0 + 1e-12)
+    (r + 1e-15 * size) * (1.0 + 1e-12)
 }
 
 /// [`half_diagonal`] across unit `axis`: the farthest any point of the box
@@ -112,7 +119,6 @@ fn half_diagonal(b: &Aabb) -> f64 {
 /// along its normals).
 #[inline]
 fn half_diagonal_across(b: &Aabb, axis: DVec3) -> f64 {
-    let size = b.min.abs().max(b.max.abs()).max_element();
     let h = 0.5 * (b.max - b.min);
     let far = [1.0, -1.0]
         .iter()
@@ -124,7 +130,7 @@ fn half_diagonal_across(b: &Aabb, axis: DVec3) -> f64 {
                 .length_squared(),
         )
     });
-    (r2.sqrt() + 1e-15 * size) * (1.0 + 1e-12)
+    with_rounding(r2.sqrt(), b)
 }
 
 impl KeptCertificates {
