@@ -625,14 +625,21 @@ impl SelfQueries {
 
     /// The allowance of the candidate set for a query within `reach` at
     /// `ends`, after rebuilding the set at `ends[0]` when it is stale for the
-    /// query's kind or does not reach that far; fits the displacement boxes.
-    fn prepare(&mut self, ends: &[&[DVec3]], reach: f64, s: &mut FrameStats) -> Result<f64> {
+    /// query's kind or does not reach that far, and the kind (for
+    /// [`uncovered`](Self::uncovered) to record); fits the displacement boxes.
+    fn prepare(
+        &mut self,
+        ends: &[&[DVec3]],
+        reach: f64,
+        s: &mut FrameStats,
+    ) -> Result<(f64, Kind)> {
         let fresh = |c: &Candidates| {
             ends.iter()
                 .map(|x| c.allowance(reach, magnitude(x)))
                 .try_fold(f64::INFINITY, |a, b| b.map(|b| a.min(b)))
         };
-        let stale = self.stale_for(Kind::new(reach, ends.len()));
+        let kind = Kind::new(reach, ends.len());
+        let stale = self.stale_for(kind);
         let allowance = match fresh(&self.candidates).filter(|_| !stale) {
             Some(a) => {
                 s.candidate_reuses += 1;
@@ -651,7 +658,7 @@ impl SelfQueries {
         self.motion
             .fit(&self.bvh, &self.mesh, &c.reference, ends, allowance);
         s.refit_time += t0.elapsed().as_secs_f64();
-        Ok(allowance)
+        Ok((allowance, kind))
     }
 
     /// True when the whole mesh spreads less than `allowance`: part (b) is
@@ -662,16 +669,15 @@ impl SelfQueries {
 
     /// Part (b) of a query (module doc): the traversal of the hierarchy as
     /// fitted now, boxes within `gap`, culled by motion, running `test` on
-    /// the pairs not covered. Records its cost for the query's kind (`gap`
-    /// and the ends [`prepare`](Self::prepare) fitted).
+    /// the pairs not covered. Records its cost for the query's `kind`
+    /// ([`prepare`](Self::prepare)'s).
     fn uncovered<T: Send>(
         &mut self,
         gap: f64,
-        allowance: f64,
+        (allowance, kind): (f64, Kind),
         test: impl Fn(ElementPair) -> Option<T> + Sync,
         s: &mut FrameStats,
     ) -> Vec<T> {
-        let kind = Kind::new(gap, self.motion.ends);
         if self.all_covered(allowance) {
             self.record_uncovered(kind, 0);
             return Vec::new();
@@ -714,7 +720,8 @@ impl SelfQueries {
                 "thickness must be positive and finite, got {thickness}"
             )));
         }
-        let allowance = self.prepare(&[x], thickness, s)?;
+        let prepared = self.prepare(&[x], thickness, s)?;
+        let allowance = prepared.0;
         if !self.all_covered(allowance) {
             self.fit_static(x, s);
         }
@@ -722,7 +729,7 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let mut fresh = self.uncovered(thickness, allowance, test, s);
+        let mut fresh = self.uncovered(thickness, prepared, test, s);
         let c = &self.candidates;
         let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
         s.candidates += (vt.len() + ee.len() + skin.len()) as u64;
@@ -803,7 +810,8 @@ impl SelfQueries {
         s: &mut FrameStats,
     ) -> Result<Impacts> {
         let mesh = self.mesh.clone();
-        let allowance = self.prepare(&[x0, x1], thickness, s)?;
+        let prepared = self.prepare(&[x0, x1], thickness, s)?;
+        let allowance = prepared.0;
         let t0 = Instant::now();
         if !self.all_covered(allowance) {
             self.bvh.refit_swept(&mesh, x0, x1);
@@ -814,7 +822,7 @@ impl SelfQueries {
         let test = |p: ElementPair| {
             element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
         };
-        let mut found = self.uncovered(thickness, allowance, test, s);
+        let mut found = self.uncovered(thickness, prepared, test, s);
         let c = &self.candidates;
         let (places, covered) = c.covered(&self.motion, thickness, allowance);
         // The hierarchy's leaf boxes when it is fitted to the sweep: the same boxes.
