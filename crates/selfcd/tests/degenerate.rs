@@ -301,6 +301,10 @@ fn check_zero_area_mesh(mesh: &Arc<Mesh>) {
             assert_eq!(got.pairs, want[k].pairs, "{m}, frame {k}");
         }
     }
+    for (k, p) in frames.iter().enumerate() {
+        let one_shot = selfcd::self_intersections(mesh, p).unwrap();
+        assert_eq!(one_shot, want[k].pairs, "one-shot, frame {k}");
+    }
     // The sensor accepts curved rest shapes too (issue 12): a subset of the truth either way.
     for m in [Method::BvhCones, Method::SensorGated] {
         for (k, got) in run(mesh, m, &frames, 0.0).iter().enumerate() {

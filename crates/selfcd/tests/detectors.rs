@@ -143,6 +143,11 @@ fn check(name: &str, mesh: &Arc<Mesh>, p: &[DVec3]) -> (usize, u64) {
         assert_eq!(got.pairs, want, "{m} differs from brute on {name}");
         assert_eq!(got.stats.contacts as usize, want.len());
     }
+    let one_shot = selfcd::self_intersections(mesh, p).unwrap();
+    assert_eq!(
+        one_shot, want,
+        "the one-shot query differs from brute on {name}"
+    );
     let paper = detect(mesh, Method::BvhCones, p, 0.0).pairs;
     let (missed, spurious) = diff_sorted(&want, &paper);
     assert_eq!(
@@ -426,6 +431,8 @@ fn extreme_scales_give_the_same_pairs() {
         for m in [Method::Brute, Method::Bvh, Method::BvhConesContour] {
             assert_eq!(detect(&scaled_mesh, m, &p, 0.0).pairs, want, "{m} at 2^{e}");
         }
+        let one_shot = selfcd::self_intersections(&scaled_mesh, &p).unwrap();
+        assert_eq!(one_shot, want, "the one-shot query at 2^{e}");
     }
 }
 

@@ -411,6 +411,8 @@ fn soups_over_the_whole_range_match_the_reference() {
         for m in EXACT {
             assert_eq!(pairs(&mesh, m, mesh.rest()), want, "{m}, round {round}");
         }
+        let one_shot = selfcd::self_intersections(&mesh, mesh.rest()).unwrap();
+        assert_eq!(one_shot, want, "one-shot, round {round}");
     }
 }
 
@@ -456,6 +458,8 @@ fn per_axis_powers_of_two_keep_the_pairs_of_meshes() {
             for m in EXACT {
                 assert_eq!(pairs(&scaled, m, &q), want, "case {k}, {m}, scale {s:?}");
             }
+            let one_shot = selfcd::self_intersections(&scaled, &q).unwrap();
+            assert_eq!(one_shot, want, "case {k}, one-shot, scale {s:?}");
         }
     }
     // The integer soup at the subnormal scale is exact too.
@@ -468,6 +472,11 @@ fn per_axis_powers_of_two_keep_the_pairs_of_meshes() {
             "{m} at 2^-1074"
         );
     }
+    assert_eq!(
+        selfcd::self_intersections(&tiny, &q).unwrap(),
+        pairs(&soup_mesh, Method::Brute, soup_mesh.rest()),
+        "one-shot at 2^-1074"
+    );
 }
 
 #[test]

@@ -11,6 +11,7 @@ pub mod certify;
 pub mod kept;
 pub mod patch;
 pub mod refit;
+pub mod topdown;
 pub mod traverse;
 
 use crate::geom::{Aabb, NormalCone, Slab};

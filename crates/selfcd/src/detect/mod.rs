@@ -176,16 +176,14 @@ pub fn new_detector(
     })
 }
 
-/// One-shot exact query: all intersecting non-adjacent triangle pairs of a mesh.
+/// One-shot exact query: all intersecting non-adjacent triangle pairs of a
+/// mesh at `positions`, `[i, j]` with i < j, sorted.
 ///
-/// The hierarchy is built with its boxes and cones fitted to the rest shape,
-/// so it is refitted only when `positions` differ from it (a mesh checked at
-/// its own vertices, the usual one-shot, needs no refit).
+/// Runs on a hierarchy built top-down for this query alone
+/// ([`crate::bvh::topdown`]): nodes are split only where a certificate
+/// fails, so a smooth sheet costs one certificate. A simulation, which asks
+/// every frame, keeps a [`Detector`] instead.
 pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[u32; 2]>> {
     mesh.check_positions(positions)?;
-    let mut d = hierarchy::BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
-    if !mesh.is_rest(positions) {
-        d.refit(positions);
-    }
-    Ok(d.traverse(positions)?.pairs)
+    Ok(crate::bvh::topdown::self_intersections(mesh, positions).0)
 }
