@@ -473,3 +473,61 @@ fn vertices(mesh: &Mesh, contour: &[u32]) -> Vec<u32> {
 fn has_directed_edge(tri: [u32; 3], a: u32, b: u32) -> bool {
     (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::grid;
+
+    /// `disk_contour` of all the triangles of a mesh.
+    fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
+        let mesh = Mesh::new(v.to_vec(), f.to_vec()).unwrap();
+        let q = Query::new(&mesh, mesh.rest());
+        q.disk_contour(&[0..f.len() as u32], &mut Vec::new())
+    }
+
+    #[test]
+    fn only_consistently_wound_disks_pass_the_topology_test() {
+        let square = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        assert!(whole_is_disk(&square, &[[0, 1, 2], [0, 2, 3]]));
+        // The shared edge 0-2 in the same direction in both: inconsistent winding.
+        assert!(!whole_is_disk(&square, &[[0, 1, 2], [0, 3, 2]]));
+        // Two triangles apart: Euler characteristic 2.
+        let mut apart = square.to_vec();
+        apart.extend([[5.0, 0.0, 0.0], [6.0, 0.0, 0.0], [5.0, 1.0, 0.0]]);
+        assert!(!whole_is_disk(&apart, &[[0, 1, 2], [4, 5, 6]]));
+        // A ring of quads around a hole: Euler characteristic 0.
+        let ring: Vec<[f64; 3]> = (0..8)
+            .map(|k| {
+                let a = std::f64::consts::FRAC_PI_2 * (k % 4) as f64;
+                let r = if k < 4 { 1.0 } else { 2.0 };
+                [r * a.cos(), r * a.sin(), 0.0]
+            })
+            .collect();
+        let quads: Vec<[u32; 3]> = (0..4u32)
+            .flat_map(|k| {
+                let (i0, i1, o0, o1) = (k, (k + 1) % 4, k + 4, (k + 1) % 4 + 4);
+                [[i0, o0, o1], [i0, o1, i1]]
+            })
+            .collect();
+        assert!(!whole_is_disk(&ring, &quads));
+        // Filling the hole makes it a disk.
+        let mut filled = quads.clone();
+        filled.extend([[0, 1, 2], [0, 2, 3]]);
+        assert!(whole_is_disk(&ring, &filled));
+    }
+
+    #[test]
+    fn a_flat_sheet_costs_one_certificate() {
+        let (v, f) = grid(40, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let (pairs, c) = self_intersections(&mesh, mesh.rest());
+        assert!(pairs.is_empty());
+        assert_eq!((c.self_culls, c.contour_tests, c.node_pairs), (1, 1, 0));
+    }
+}
