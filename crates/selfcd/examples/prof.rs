@@ -16,9 +16,10 @@
 //! the per-frame sequence of `scripts/bench_peers.py`) instead of one;
 //! `PROF_WAVE=drift` on one frame per repetition, the wave's phase moving
 //! as before and its wavelength growing 2% a frame (no frame repeats). The
-//! first detection (refit + traverse) is reported apart from the best: it
-//! also computes the patches the contour test needs (a one-shot query is
-//! build + first detection).
+//! first detection (refit + traverse) is reported apart from the best.
+//! `PROF_ONESHOT=1` runs the one-shot query instead (`self_intersections`'s
+//! top-down hierarchy, REPS times, on the mesh as built): best time and
+//! what it did; METHOD is ignored.
 use selfcd::detect::hierarchy::BvhDetector;
 use selfcd::{new_detector, Detector, DetectorOptions, Method};
 use std::time::Instant;
@@ -45,6 +46,9 @@ fn main() {
     let (mesh, p, rest) = frame(&a);
     let method: Method = rest[0].parse().unwrap();
     let reps: usize = rest.get(1).map(|x| x.parse().unwrap()).unwrap_or(5);
+    if std::env::var("PROF_ONESHOT").is_ok_and(|x| x == "1") {
+        return one_shot(&mesh, &p, reps);
+    }
     let thickness: f64 = rest.get(2).map(|x| x.parse().unwrap()).unwrap_or(0.0);
     let builds: usize = std::env::var("PROF_BUILDS")
         .ok()
@@ -131,4 +135,18 @@ fn main() {
         "{n} triangles: build {:.1} ms, first detect {:.1} ms, best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {} (failed {}, certificates reused {}), primitive tests {}, contacts {}, proximity tests {}, proximity contacts {}",
         build * 1e3, first * 1e3, refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.contour_fails, s.certificates_reused, s.primitive_tests, s.contacts, s.proximity_tests, s.proximity_contacts
     );
+}
+
+/// `PROF_ONESHOT=1`: the one-shot query `reps` times; best time and counters.
+fn one_shot(mesh: &selfcd::Mesh, p: &[selfcd::DVec3], reps: usize) {
+    let mut best = f64::MAX;
+    let mut last = None;
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        let (pairs, c) = selfcd::bvh::topdown::self_intersections(mesh, p);
+        best = best.min(t0.elapsed().as_secs_f64() * 1e3);
+        last = Some((pairs.len(), c));
+    }
+    let (n, c) = last.unwrap();
+    println!("one-shot best {best:.2} ms, {n} pairs; {c:?}");
 }

@@ -25,7 +25,7 @@
 //! and Euler(S') <= 1; cutting added as many vertices as it made copies, so
 //! Euler(S') = 1 + copies forces no copy: S' = S is a disk.
 
-use crate::bvh::patch::{have_common, pack, project_contour, unpack};
+use crate::bvh::patch::have_common;
 use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
 use crate::geom::loop2d::{simple_ccw_loop, star_about, LoopScratch, Plane, Seg};
@@ -36,11 +36,19 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+use std::sync::OnceLock;
 
 /// Nodes of at most this many triangles are tested pair by pair.
 const LEAF: usize = 8;
 /// Nodes of at least this many triangles run their halves as parallel tasks.
 const PAR_MIN: usize = 2048;
+/// Triangles per parallel task of one node's certificate passes.
+const CHUNK: usize = 8192;
+/// Edge flag: one of the triangle's edges is in more than two triangles.
+const TANGLED: u8 = 1;
+/// Edge flag, shifted by the edge's index: the triangle across that edge
+/// runs it in the same direction (inconsistent winding).
+const FLIPPED: u8 = 2;
 
 /// All intersecting pairs of non-adjacent triangles of `mesh` at `positions`
 /// (`[i, j]`, i < j, sorted), with what the query did.
@@ -49,8 +57,13 @@ pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, C
     if n < 2 {
         return (Vec::new(), Counters::default());
     }
-    let q = Query::new(mesh, positions);
-    let mut root = q.node(0..n as u32);
+    let (q, bbox) = Query::new(mesh, positions);
+    let mut root = Node {
+        range: 0..n as u32,
+        bbox,
+        kids: None,
+        patch: None,
+    };
     let mut out = q.self_test(&mut root);
     out.pairs.sort_unstable();
     (out.pairs, out.counters)
@@ -62,10 +75,17 @@ pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, C
 struct Query<'a> {
     mesh: &'a Mesh,
     x: &'a [DVec3],
-    boxes: Vec<Aabb>,
+    /// Each triangle's box, fitted when the root is first split (a root
+    /// that holds its certificate needs none).
+    boxes: OnceLock<Vec<Aabb>>,
     /// Unit normal of each triangle and a bound on its angle to the exact
     /// one; a zero normal where none is known (the cone test then fails).
     normals: Vec<(DVec3, f64)>,
+    /// The triangle across each edge of each triangle (itself where there
+    /// is none: a border, or an edge in more than two triangles).
+    across: Vec<[u32; 3]>,
+    /// [`TANGLED`] and [`FLIPPED`] bits of each triangle.
+    edge_flags: Vec<u8>,
     order: Vec<AtomicU32>,
     pos: Vec<AtomicU32>,
 }
@@ -80,15 +100,15 @@ struct Node {
 }
 
 /// What the certificates need of a node: its cone when under 90 degrees,
-/// and then whether it is a disk (module doc), its packed contour and the
-/// sorted vertices of that contour.
+/// and then whether it is a disk (module doc), its contour (directed vertex
+/// pairs) and the sorted vertices of that contour.
 #[derive(Default)]
 struct Patch {
     cone: Option<NormalCone>,
     disk: bool,
     /// The self-certificate held (set by [`Query::self_certified`]).
     certified: bool,
-    contour: Vec<u32>,
+    contour: Vec<[u32; 2]>,
     boundary: Vec<u32>,
 }
 
@@ -116,33 +136,83 @@ impl Found {
 /// Buffers of one task's certificates.
 #[derive(Default)]
 struct Scratch {
-    normals: Vec<DVec3>,
-    contour: Vec<u32>,
+    contour: Vec<[u32; 2]>,
     segs: Vec<Seg>,
     loops: LoopScratch,
 }
 
 impl<'a> Query<'a> {
-    fn new(mesh: &'a Mesh, x: &'a [DVec3]) -> Query<'a> {
+    /// The query's shared state, and the box of every triangle's corners.
+    fn new(mesh: &'a Mesh, x: &'a [DVec3]) -> (Query<'a>, Aabb) {
         let n = mesh.n_triangles();
-        let (boxes, normals) = (0..n)
+        let mut normals = vec![(DVec3::ZERO, 0.0); n];
+        let mut across = vec![[0u32; 3]; n];
+        let mut edge_flags = vec![0u8; n];
+        let bbox = (
+            normals.par_chunks_mut(CHUNK),
+            across.par_chunks_mut(CHUNK),
+            edge_flags.par_chunks_mut(CHUNK),
+        )
             .into_par_iter()
-            .map(|t| {
-                let c = mesh.corners(x, t);
-                let normal =
-                    NormalCone::unit_normal(c[0], c[1], c[2]).unwrap_or((DVec3::ZERO, 0.0));
-                (Aabb::from_points(&c), normal)
+            .enumerate()
+            .map(|(k, (normals, across, flags))| {
+                let mut bbox = Aabb::EMPTY;
+                for (i, t) in (k * CHUNK..).take(normals.len()).enumerate() {
+                    let c = mesh.corners(x, t);
+                    bbox = bbox.union(&Aabb::from_points(&c));
+                    if let Some(u) = NormalCone::unit_normal(c[0], c[1], c[2]) {
+                        normals[i] = u;
+                    }
+                    (across[i], flags[i]) = neighbours(mesh, t as u32);
+                }
+                bbox
             })
-            .unzip();
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
         let ids = || (0..n as u32).map(AtomicU32::new).collect();
-        Query {
+        let q = Query {
             mesh,
             x,
-            boxes,
+            boxes: OnceLock::new(),
             normals,
+            across,
+            edge_flags,
             order: ids(),
             pos: ids(),
+        };
+        (q, bbox)
+    }
+
+    /// Each triangle's box.
+    #[inline]
+    fn boxes(&self) -> &[Aabb] {
+        self.boxes.get_or_init(|| {
+            (0..self.mesh.n_triangles())
+                .into_par_iter()
+                .map(|t| Aabb::from_points(&self.mesh.corners(self.x, t)))
+                .collect()
+        })
+    }
+
+    /// `op` on every piece of at most [`CHUNK`] positions of `ranges`, in
+    /// order; in parallel when there are several.
+    fn pieces<T: Send>(
+        &self,
+        ranges: &[Range<u32>],
+        op: impl Fn(Range<u32>) -> T + Sync,
+    ) -> Vec<T> {
+        let len: usize = ranges.iter().map(|r| r.len()).sum();
+        if len <= 2 * CHUNK {
+            return ranges.iter().map(|r| op(r.clone())).collect();
         }
+        let pieces: Vec<Range<u32>> = ranges
+            .iter()
+            .flat_map(|r| {
+                r.clone()
+                    .step_by(CHUNK)
+                    .map(move |i| i..(i + CHUNK as u32).min(r.end))
+            })
+            .collect();
+        pieces.into_par_iter().map(&op).collect()
     }
 
     #[inline]
@@ -151,9 +221,10 @@ impl<'a> Query<'a> {
     }
 
     fn node(&self, range: Range<u32>) -> Node {
-        let bbox = range.clone().fold(Aabb::EMPTY, |b, i| {
-            b.union(&self.boxes[self.tri(i) as usize])
-        });
+        let boxes = self.boxes();
+        let bbox = range
+            .clone()
+            .fold(Aabb::EMPTY, |b, i| b.union(&boxes[self.tri(i) as usize]));
         Node {
             range,
             bbox,
@@ -228,10 +299,11 @@ impl<'a> Query<'a> {
     /// the second part starts.
     fn partition(&self, node: &Node) -> u32 {
         let Range { start, end } = node.range.clone();
+        let boxes = self.boxes();
         let twice_mid = node.bbox.min + node.bbox.max;
         let mut cut = [0u32; 3];
         for i in start..end {
-            let b = &self.boxes[self.tri(i) as usize];
+            let b = &boxes[self.tri(i) as usize];
             let straddles = (2.0 * b.min).cmplt(twice_mid) & twice_mid.cmplt(2.0 * b.max);
             for (axis, c) in cut.iter_mut().enumerate() {
                 *c += straddles.test(axis) as u32;
@@ -247,7 +319,7 @@ impl<'a> Query<'a> {
             })
             .unwrap_or(0);
         let below = |t: u32| {
-            let b = &self.boxes[t as usize];
+            let b = &boxes[t as usize];
             b.min[axis] + b.max[axis] < twice_mid[axis]
         };
         let (mut i, mut j) = (start, end);
@@ -272,9 +344,10 @@ impl<'a> Query<'a> {
     /// Orders `range` so its first half holds the triangles whose box
     /// centres are lowest along `axis` (ties by id); returns the middle.
     fn split_at_median(&self, range: Range<u32>, axis: usize) -> u32 {
+        let boxes = self.boxes();
         let mut tris: Vec<u32> = range.clone().map(|i| self.tri(i)).collect();
         let key = |t: &u32| {
-            let b = &self.boxes[*t as usize];
+            let b = &boxes[*t as usize];
             (b.min[axis] + b.max[axis], *t)
         };
         let half = tris.len() / 2;
@@ -292,16 +365,16 @@ impl<'a> Query<'a> {
     }
 
     /// The patch of `node`, found now if it is not yet.
-    fn patch<'n>(&self, node: &'n mut Node, f: &mut Found) -> &'n Patch {
+    fn patch<'n>(&self, node: &'n mut Node) -> &'n Patch {
         if node.patch.is_none() {
             let ranges = [node.range.clone()];
             let mut p = Patch {
-                cone: self.cone(&ranges, &mut f.scratch.normals),
+                cone: self.cone(&ranges),
                 ..Patch::default()
             };
             if p.cone.is_some() {
                 p.disk = self.disk_contour(&ranges, &mut p.contour);
-                p.boundary = vertices(self.mesh, &p.contour);
+                p.boundary = starts(&p.contour);
             }
             node.patch = Some(p);
         }
@@ -311,7 +384,7 @@ impl<'a> Query<'a> {
     /// The self-certificate of `node` (module doc); counted in `f`.
     fn self_certified(&self, node: &mut Node, f: &mut Found) -> bool {
         let bbox = node.bbox;
-        let p = self.patch(node, f);
+        let p = self.patch(node);
         let Some(cone) = p.cone else {
             return false;
         };
@@ -347,81 +420,124 @@ impl<'a> Query<'a> {
         ok
     }
 
-    /// Is packed `contour` projected along unit `axis` one loop around the
+    /// Is `contour` projected along unit `axis` one loop around the
     /// centre of `bbox` (star test) or one simple counter-clockwise loop?
-    fn height_field(&self, axis: DVec3, bbox: &Aabb, contour: &[u32], f: &mut Found) -> bool {
+    fn height_field(&self, axis: DVec3, bbox: &Aabb, contour: &[[u32; 2]], f: &mut Found) -> bool {
         f.counters.contour_tests += 1;
         let s = &mut f.scratch;
         let plane = Plane::new(axis, bbox.center());
-        project_contour(self.mesh, self.x, contour, &plane, &mut s.segs);
+        s.segs.clear();
+        s.segs.extend(contour.iter().map(|&v| Seg {
+            p: v.map(|v| plane.project(self.x[v as usize])),
+            v,
+        }));
         star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops)
     }
 
     /// The normal cone of the triangles in `ranges` about their mean
-    /// normal, when it is under 90 degrees.
-    fn cone(&self, ranges: &[Range<u32>], normals: &mut Vec<DVec3>) -> Option<NormalCone> {
-        normals.clear();
-        let (mut sum, mut err) = (DVec3::ZERO, 0.0f64);
-        for i in ranges.iter().flat_map(|r| r.clone()) {
-            let (n, e) = self.normals[self.tri(i) as usize];
-            if n == DVec3::ZERO {
-                return None;
+    /// normal, when it is under 90 degrees. Pieces are summed in order, so
+    /// the axis does not depend on the thread count.
+    fn cone(&self, ranges: &[Range<u32>]) -> Option<NormalCone> {
+        let sums = self.pieces(ranges, |r| {
+            let (mut sum, mut err) = (DVec3::ZERO, 0.0f64);
+            for i in r {
+                let (n, e) = self.normals[self.tri(i) as usize];
+                if n == DVec3::ZERO {
+                    return None;
+                }
+                sum += n;
+                err = err.max(e);
             }
-            normals.push(n);
-            sum += n;
+            Some((sum, err))
+        });
+        let (mut sum, mut err) = (DVec3::ZERO, 0.0f64);
+        for (s, e) in sums.into_iter().collect::<Option<Vec<_>>>()? {
+            sum += s;
             err = err.max(e);
         }
-        let cone = NormalCone::around(sum.normalize_or_zero(), normals, err);
-        cone.is_positive().then_some(cone)
+        let axis = sum.normalize_or_zero();
+        let least = self.pieces(ranges, |r| {
+            r.map(|i| self.normals[self.tri(i) as usize].0)
+                .min_by(|p, q| axis.dot(*p).total_cmp(&axis.dot(*q)))
+        });
+        let least = least
+            .into_iter()
+            .flatten()
+            .min_by(|p, q| axis.dot(*p).total_cmp(&axis.dot(*q)))?;
+        NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)
     }
 
-    /// Writes the packed contour of the union of `ranges` into `contour`;
-    /// true when every edge of the union is in at most two of its triangles,
-    /// with opposite directions, and its Euler characteristic is 1.
-    fn disk_contour(&self, ranges: &[Range<u32>], contour: &mut Vec<u32>) -> bool {
+    /// Writes the contour of the union of `ranges` into `contour`; true
+    /// when every edge of the union is in at most two of its triangles, with
+    /// opposite directions, and its Euler characteristic is 1.
+    ///
+    /// Vertices are counted by their owners ([`crate::mesh::Topology::owned`])
+    /// in the union, plus the contour's vertices whose owner is outside it.
+    /// That is every vertex once where the mesh is manifold, and never more
+    /// than every vertex: the count is low only at a vertex with several
+    /// fans, and a low count can only refuse a certificate (the module
+    /// doc's S' has Euler characteristic at most 1, so S has at most 1, and a
+    /// lower count than S's is then below 1).
+    fn disk_contour(&self, ranges: &[Range<u32>], contour: &mut Vec<[u32; 2]>) -> bool {
         contour.clear();
-        let topo = self.mesh.topology();
-        let tris = self.mesh.triangles();
-        let member = |t: u32| {
-            let p = self.pos[t as usize].load(Relaxed);
-            ranges.iter().any(|r| r.contains(&p))
-        };
-        let (mut v, mut f) = (0i64, 0i64);
-        for i in ranges.iter().flat_map(|r| r.clone()) {
+        let (mut owned, mut f) = (0i64, 0i64);
+        for piece in self.pieces(ranges, |r| self.contour_piece(ranges, r)) {
+            let Some((o, n, edges)) = piece else {
+                return false;
+            };
+            (owned, f) = (owned + o, f + n);
+            contour.extend(edges);
+        }
+        let member = |t: u32| self.member(ranges, t);
+        let vertex_tris = &self.mesh.topology().vertex_tris;
+        let outside_owned = starts(contour)
+            .into_iter()
+            .filter(|&v| !member(vertex_tris.row(v as usize)[0]))
+            .count() as i64;
+        let e = (3 * f + contour.len() as i64) / 2;
+        owned + outside_owned - e + f == 1
+    }
+
+    /// Is triangle `t` in the union of `ranges`?
+    #[inline]
+    fn member(&self, ranges: &[Range<u32>], t: u32) -> bool {
+        let p = self.pos[t as usize].load(Relaxed);
+        ranges.iter().any(|r| r.contains(&p))
+    }
+
+    /// The contour edges of the triangles at positions `r` of the union of
+    /// `ranges`, with how many triangles and owned vertices they hold;
+    /// `None` at an edge in more than two triangles of the mesh or in two of
+    /// the union with the same direction.
+    fn contour_piece(
+        &self,
+        ranges: &[Range<u32>],
+        r: Range<u32>,
+    ) -> Option<(i64, i64, Vec<[u32; 2]>)> {
+        let (tris, owned) = (self.mesh.triangles(), &self.mesh.topology().owned);
+        let (mut v, mut contour) = (0i64, Vec::new());
+        let f = r.len() as i64;
+        for i in r {
             let t = self.tri(i);
-            let (tri, edges, owned) = (
+            let (tri, across, flags) = (
                 tris[t as usize],
-                topo.tri_edges[t as usize],
-                topo.owned[t as usize],
+                self.across[t as usize],
+                self.edge_flags[t as usize],
             );
-            f += 1;
+            if flags & TANGLED != 0 {
+                return None;
+            }
+            v += (owned[t as usize] & 7).count_ones() as i64;
             for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                match *topo.edge_tris.row(edges[k] as usize) {
-                    [_] => contour.push(pack(edges[k], a, b)),
-                    [s, u] => {
-                        let o = s ^ u ^ t;
-                        if !member(o) {
-                            contour.push(pack(edges[k], a, b));
-                        } else if !has_directed_edge(tris[o as usize], b, a) {
-                            return false;
-                        }
-                    }
-                    _ => return false,
+                let o = across[k];
+                if o == t || !self.member(ranges, o) {
+                    contour.push([tri[k], tri[(k + 1) % 3]]);
+                } else if flags & (FLIPPED << k) != 0 {
+                    return None;
                 }
-                // Each vertex is counted by the first of its triangles in the set.
-                let first = owned & (1 << k) != 0
-                    || topo
-                        .vertex_tris
-                        .row(tri[k] as usize)
-                        .iter()
-                        .find(|&&s| member(s))
-                        == Some(&t);
-                v += first as i64;
             }
         }
-        let e = (3 * f + contour.len() as i64) / 2;
-        v - e + f == 1
+        Some((v, f, contour))
     }
 
     fn leaf_self(&self, node: &Node, f: &mut Found) {
@@ -443,7 +559,8 @@ impl<'a> Query<'a> {
 
     #[inline]
     fn test(&self, s: u32, t: u32, f: &mut Found) {
-        if !self.boxes[s as usize].overlaps(&self.boxes[t as usize]) {
+        let boxes = self.boxes();
+        if !boxes[s as usize].overlaps(&boxes[t as usize]) {
             return;
         }
         if self.mesh.share_vertex(s as usize, t as usize) {
@@ -460,12 +577,34 @@ impl<'a> Query<'a> {
     }
 }
 
-/// The sorted distinct vertices of packed contour edges.
-fn vertices(mesh: &Mesh, contour: &[u32]) -> Vec<u32> {
-    let mut v: Vec<u32> = contour.iter().flat_map(|&e| unpack(mesh, e)).collect();
+/// The sorted distinct start vertices of `contour` (every vertex of a
+/// contour of consistently wound triangles starts one of its edges).
+fn starts(contour: &[[u32; 2]]) -> Vec<u32> {
+    let mut v: Vec<u32> = contour.iter().map(|e| e[0]).collect();
     v.sort_unstable();
     v.dedup();
     v
+}
+
+/// The triangles across the edges of triangle `t` and its edge flags.
+fn neighbours(mesh: &Mesh, t: u32) -> ([u32; 3], u8) {
+    let (topo, tris) = (mesh.topology(), mesh.triangles());
+    let tri = tris[t as usize];
+    let (mut across, mut flags) = ([t; 3], 0);
+    for (k, &e) in topo.tri_edges[t as usize].iter().enumerate() {
+        match *topo.edge_tris.row(e as usize) {
+            [_] => {}
+            [s, u] => {
+                let o = s ^ u ^ t;
+                across[k] = o;
+                if has_directed_edge(tris[o as usize], tri[k], tri[(k + 1) % 3]) {
+                    flags |= FLIPPED << k;
+                }
+            }
+            _ => flags |= TANGLED,
+        }
+    }
+    (across, flags)
 }
 
 /// Does triangle `tri` hold the directed edge `a -> b`?

@@ -177,17 +177,29 @@ impl NormalCone {
         if axis == DVec3::ZERO || normals.is_empty() {
             return NormalCone::FULL;
         }
-        let far = Angle::between(axis, normals[least_dot(axis, normals)]);
-        let (far, slack) = if far.c >= 0.0 {
-            (far, 9.0 * f64::EPSILON.sqrt())
-        } else {
-            (farthest(axis, normals), MERGE_SLACK)
-        };
-        let quarter = far.half().widen(0.5 * (err + slack));
+        let least = normals[least_dot(axis, normals)];
+        if axis.dot(least) >= 0.0 {
+            return Self::within_90_around(axis, least, err).unwrap_or(NormalCone::FULL);
+        }
+        let far = farthest(axis, normals);
+        let quarter = far.half().widen(0.5 * (err + MERGE_SLACK));
         if quarter.c <= 0.0 {
             return NormalCone::FULL;
         }
         NormalCone { axis, quarter }
+    }
+
+    /// [`around`](Self::around) when `least` is the normal with the least
+    /// dot product with `axis` and that dot is not negative (`None`
+    /// otherwise, or for a zero axis): callers that scan the normals their
+    /// own way (in parallel, through an index) need only that one.
+    pub fn within_90_around(axis: DVec3, least: DVec3, err: f64) -> Option<NormalCone> {
+        let far = Angle::between(axis, least);
+        if axis == DVec3::ZERO || far.c < 0.0 {
+            return None;
+        }
+        let quarter = far.half().widen(0.5 * (err + 9.0 * f64::EPSILON.sqrt()));
+        (quarter.c > 0.0).then_some(NormalCone { axis, quarter })
     }
 
     /// The cone of triangle (a, b, c)'s normal over the whole of a linear
