@@ -621,7 +621,7 @@ mod tests {
     /// `disk_contour` of all the triangles of a mesh.
     fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
         let mesh = Mesh::new(v.to_vec(), f.to_vec()).unwrap();
-        let q = Query::new(&mesh, mesh.rest());
+        let (q, _) = Query::new(&mesh, mesh.rest());
         q.disk_contour(&[0..f.len() as u32], &mut Vec::new())
     }
 
