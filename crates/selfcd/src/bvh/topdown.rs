@@ -622,7 +622,8 @@ mod tests {
     fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
         let mesh = Mesh::new(v.to_vec(), f.to_vec()).unwrap();
         let (q, _) = Query::new(&mesh, mesh.rest());
-        q.disk_contour(&[0..f.len() as u32], &mut Vec::new())
+        let all = 0..f.len() as u32;
+        q.disk_contour(std::slice::from_ref(&all), &mut Vec::new())
     }
 
     #[test]
