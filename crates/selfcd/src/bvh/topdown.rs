@@ -272,10 +272,43 @@ impl<'a> Query<'a> {
             f.counters.pair_culls += 1;
             return;
         }
+        if a.len().min(b.len()) >= PAR_MIN {
+            return self.pair_test_parallel(a, b, f);
+        }
         let (big, small) = if a.len() >= b.len() { (a, b) } else { (b, a) };
         let [p, q] = self.kids(big);
         self.pair_test(p, small, f);
         self.pair_test(q, small, f);
+    }
+
+    /// [`pair_test`](Self::pair_test) of two large nodes by their four
+    /// child pairs, two disjoint ones at a time in parallel tasks.
+    fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found) {
+        let [a0, a1] = self.kids(a);
+        let [b0, b1] = self.kids(b);
+        self.pair_tests_apart(a0, b0, a1, b1, f);
+        self.pair_tests_apart(a0, b1, a1, b0, f);
+    }
+
+    /// The pair tests of `p` with `q` and of `r` with `s` (four distinct
+    /// nodes) as two parallel tasks.
+    fn pair_tests_apart(
+        &self,
+        p: &mut Node,
+        q: &mut Node,
+        r: &mut Node,
+        s: &mut Node,
+        f: &mut Found,
+    ) {
+        let ((), other) = rayon::join(
+            || self.pair_test(p, q, f),
+            || {
+                let mut other = Found::default();
+                self.pair_test(r, s, &mut other);
+                other
+            },
+        );
+        f.absorb(other);
     }
 
     /// The children of `node`, split now if they are not yet.
@@ -616,7 +649,7 @@ fn has_directed_edge(tri: [u32; 3], a: u32, b: u32) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::grid;
+    use crate::scene::{grid, Deformation};
 
     /// `disk_contour` of all the triangles of a mesh.
     fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
@@ -669,5 +702,34 @@ mod tests {
         let (pairs, c) = self_intersections(&mesh, mesh.rest());
         assert!(pairs.is_empty());
         assert_eq!((c.self_culls, c.contour_tests, c.node_pairs), (1, 1, 0));
+    }
+
+    #[test]
+    fn the_same_work_and_answers_for_any_thread_count() {
+        // Big enough for parallel halves, pair tests and certificate pieces.
+        let (v, f) = grid(121, 1.0);
+        let mesh = Mesh::new(v, f).unwrap();
+        let p = Deformation::Crumple {
+            amplitude: 0.3,
+            wavelength: 0.4,
+            seed: 4,
+        }
+        .apply(mesh.rest());
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| self_intersections(&mesh, &p))
+        };
+        let (pairs, counters) = run(1);
+        assert!(pairs.len() > 100, "{}", pairs.len());
+        assert!(
+            counters.pair_culls > 0 && counters.self_culls > 0,
+            "{counters:?}"
+        );
+        let (pairs3, counters3) = run(3);
+        assert_eq!(pairs, pairs3);
+        assert_eq!(counters, counters3);
     }
 }
