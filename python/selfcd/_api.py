@@ -335,9 +335,10 @@ def first_intersection(vertices: npt.ArrayLike, faces: npt.ArrayLike,
                        subset: npt.ArrayLike | None = None, weld: bool = False) -> tuple[int, int] | None:
     """Some intersecting non-adjacent face pair (i, j), i < j, or None; exact.
 
-    The engine's traversal (boxes only, sequential) stops at the first pair it
-    finds; the pair is the same on every run. Both queries build the hierarchy
-    first, so the saving is the rest of the traversal (BENCHMARKS.md).
+    The engine's one-shot query (the same exact certificates as
+    `self_intersections`, its hierarchy split only where they fail) stops at
+    the first pair it finds, testing in one order: the pair is the same on
+    every run, and the saving is the rest of the query (BENCHMARKS.md).
     `subset` and `weld` are as in `self_intersections` (ids in the original
     numbering).
     """

@@ -53,20 +53,33 @@ const FLIPPED: u8 = 2;
 /// All intersecting pairs of non-adjacent triangles of `mesh` at `positions`
 /// (`[i, j]`, i < j, sorted), with what the query did.
 pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, Counters) {
+    let mut out = run(mesh, positions, false);
+    out.pairs.sort_unstable();
+    (out.pairs, out.counters)
+}
+
+/// Some intersecting pair of non-adjacent triangles (`[i, j]`, i < j), or
+/// None: the query of [`self_intersections`] stopping at its first pair.
+/// Its tests run in one order, so the pair is the same on every run.
+pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Option<[u32; 2]> {
+    run(mesh, positions, true).pairs.first().copied()
+}
+
+/// The query from the root, all pairs or (`first`) until one is found.
+fn run(mesh: &Mesh, positions: &[DVec3], first: bool) -> Found {
     let n = mesh.n_triangles();
     if n < 2 {
-        return (Vec::new(), Counters::default());
+        return Found::default();
     }
-    let (q, bbox) = Query::new(mesh, positions);
+    let (mut q, bbox) = Query::new(mesh, positions);
+    q.first = first;
     let mut root = Node {
         range: 0..n as u32,
         bbox,
         kids: None,
         patch: None,
     };
-    let mut out = q.self_test(&mut root);
-    out.pairs.sort_unstable();
-    (out.pairs, out.counters)
+    q.self_test(&mut root)
 }
 
 /// What a query shares between its tasks. `order` is the permutation whose
@@ -75,6 +88,8 @@ pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, C
 struct Query<'a> {
     mesh: &'a Mesh,
     x: &'a [DVec3],
+    /// Stop at the first pair found, testing in one order (no parallel tasks).
+    first: bool,
     /// Each triangle's box, fitted when the root is first split (a root
     /// that holds its certificate needs none).
     boxes: OnceLock<Vec<Aabb>>,
@@ -172,6 +187,7 @@ impl<'a> Query<'a> {
         let q = Query {
             mesh,
             x,
+            first: false,
             boxes: OnceLock::new(),
             normals,
             across,
@@ -244,7 +260,7 @@ impl<'a> Query<'a> {
             f.counters.self_culls += 1;
             return f;
         }
-        let parallel = node.len() >= PAR_MIN;
+        let parallel = !self.first && node.len() >= PAR_MIN;
         let [a, b] = self.kids(node);
         if parallel {
             let (fa, fb) = rayon::join(|| self.self_test(a), || self.self_test(b));
@@ -252,15 +268,23 @@ impl<'a> Query<'a> {
             f.absorb(fb);
         } else {
             f.absorb(self.self_test(a));
-            f.absorb(self.self_test(b));
+            if !self.done(&f) {
+                f.absorb(self.self_test(b));
+            }
         }
         self.pair_test(a, b, &mut f);
         f
     }
 
+    /// Has a first-pair query found its pair?
+    #[inline]
+    fn done(&self, f: &Found) -> bool {
+        self.first && !f.pairs.is_empty()
+    }
+
     /// Every intersecting pair with one triangle in `a`, one in `b`.
     fn pair_test(&self, a: &mut Node, b: &mut Node, f: &mut Found) {
-        if !a.bbox.overlaps(&b.bbox) {
+        if self.done(f) || !a.bbox.overlaps(&b.bbox) {
             return;
         }
         f.counters.node_pairs += 1;
@@ -272,7 +296,7 @@ impl<'a> Query<'a> {
             f.counters.pair_culls += 1;
             return;
         }
-        if a.len().min(b.len()) >= PAR_MIN {
+        if !self.first && a.len().min(b.len()) >= PAR_MIN {
             return self.pair_test_parallel(a, b, f);
         }
         let (big, small) = if a.len() >= b.len() { (a, b) } else { (b, a) };

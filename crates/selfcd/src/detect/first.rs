@@ -1,26 +1,12 @@
-//! Early exit: one intersecting pair, or none, without finding them all.
-//!
-//! A depth-first self-traversal of the BVH with an explicit stack that stops
-//! at the first non-adjacent triangle pair whose closed triangles intersect
-//! (exact test). It uses boxes only (no cone or contour culling), so it never
-//! misses a pair; on a mesh without intersections it does the work of the
-//! plain `bvh` method, and on one with intersections it stops at the first.
-//! Sequential, so the pair found is the same on every run.
-//!
-//! ```text
-//! self(N)    = nothing if N is a leaf, else self(left), self(right), pair(left, right)
-//! pair(A, B) = nothing if the boxes are apart; the exact test if both are leaves
-//!              (non-adjacent only); else pair over the children of the bigger box
-//! ```
+//! Early exit: one intersecting pair, or none, without finding them all:
+//! the one-shot query's top-down hierarchy ([`crate::bvh::topdown`]),
+//! stopping at its first pair. Its certificates are exact, so it never misses
+//! a pair; its tests run in one order, so the pair found is the same on
+//! every run.
 
-use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
-use crate::geom::tri_tri::triangles_intersect;
 use crate::mesh::Mesh;
 use glam::DVec3;
-
-/// Marks a stack entry as a self-test rather than a pair.
-const SELF: u32 = u32::MAX;
 
 /// Some non-adjacent pair `[a, b]` (a < b) of `mesh`'s triangles that intersect
 /// at `positions`, or None when there is none.
@@ -28,47 +14,7 @@ const SELF: u32 = u32::MAX;
 /// Errors: positions of the wrong length or not finite (as every query).
 pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Result<Option<[u32; 2]>> {
     mesh.check_positions(positions)?;
-    let mut bvh = build(mesh);
-    if !mesh.is_rest(positions) {
-        bvh.refit(mesh, positions);
-    }
-    Ok(search(&bvh, mesh, positions))
-}
-
-/// The depth-first search over a BVH already fitted to `positions`.
-fn search(bvh: &Bvh, mesh: &Mesh, positions: &[DVec3]) -> Option<[u32; 2]> {
-    let mut stack = vec![(bvh.root(), SELF)];
-    while let Some((a, b)) = stack.pop() {
-        if b == SELF {
-            if !bvh.is_leaf(a) {
-                let [l, r] = bvh.children_of(a);
-                stack.extend([(l, r), (r, SELF), (l, SELF)]);
-            }
-            continue;
-        }
-        let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
-        if !ba.overlaps(bb) {
-            continue;
-        }
-        let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
-        if la && lb {
-            if !mesh.share_vertex(a as usize, b as usize)
-                && triangles_intersect(
-                    &mesh.corners(positions, a as usize),
-                    &mesh.corners(positions, b as usize),
-                )
-            {
-                return Some([a.min(b), a.max(b)]);
-            }
-        } else if la || (!lb && bb.surface_area() > ba.surface_area()) {
-            let [c, d] = bvh.children_of(b);
-            stack.extend([(a, d), (a, c)]);
-        } else {
-            let [c, d] = bvh.children_of(a);
-            stack.extend([(d, b), (c, b)]);
-        }
-    }
-    None
+    Ok(crate::bvh::topdown::first_intersection(mesh, positions))
 }
 
 #[cfg(test)]
