@@ -597,30 +597,52 @@ impl<'a> Query<'a> {
         Some((v, f, contour))
     }
 
+    /// Every intersecting pair within leaf `node`.
     fn leaf_self(&self, node: &Node, f: &mut Found) {
-        let r = node.range.clone();
-        for i in r.clone() {
-            for j in i + 1..r.end {
-                self.test(self.tri(i), self.tri(j), f);
+        let mut buf = [LeafTri::default(); LEAF];
+        let leaf = self.leaf(node, &mut buf);
+        for (i, p) in leaf.iter().enumerate() {
+            for q in &leaf[i + 1..] {
+                self.test(p, q, f);
             }
         }
     }
 
+    /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
     fn leaf_pair(&self, a: &Node, b: &Node, f: &mut Found) {
-        for i in a.range.clone() {
-            for j in b.range.clone() {
-                self.test(self.tri(i), self.tri(j), f);
+        let (mut buf_a, mut buf_b) = ([LeafTri::default(); LEAF], [LeafTri::default(); LEAF]);
+        let (la, lb) = (self.leaf(a, &mut buf_a), self.leaf(b, &mut buf_b));
+        for p in la {
+            if p.bbox.overlaps(&b.bbox) {
+                for q in lb {
+                    self.test(p, q, f);
+                }
             }
         }
     }
 
+    /// The triangles of a leaf with their boxes and corners' ids, read once
+    /// for all its pairs.
+    fn leaf<'b>(&self, node: &Node, buf: &'b mut [LeafTri; LEAF]) -> &'b [LeafTri] {
+        let (boxes, tris) = (self.boxes(), self.mesh.triangles());
+        for (slot, i) in buf.iter_mut().zip(node.range.clone()) {
+            let t = self.tri(i);
+            *slot = LeafTri {
+                t,
+                bbox: boxes[t as usize],
+                v: tris[t as usize],
+            };
+        }
+        &buf[..node.len()]
+    }
+
+    /// The exact test of two non-adjacent leaf triangles whose boxes meet.
     #[inline]
-    fn test(&self, s: u32, t: u32, f: &mut Found) {
-        let boxes = self.boxes();
-        if !boxes[s as usize].overlaps(&boxes[t as usize]) {
+    fn test(&self, p: &LeafTri, q: &LeafTri, f: &mut Found) {
+        if !p.bbox.overlaps(&q.bbox) {
             return;
         }
-        if self.mesh.share_vertex(s as usize, t as usize) {
+        if p.v.iter().any(|v| q.v.contains(v)) {
             f.counters.adjacent_skips += 1;
             return;
         }
@@ -629,8 +651,26 @@ impl<'a> Query<'a> {
             mesh: self.mesh,
             positions: self.x,
         };
-        let (lo, hi) = (s.min(t), s.max(t));
+        let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
         visitor.visit_counted(lo, hi, false, &mut f.pairs, &mut f.counters);
+    }
+}
+
+/// A leaf's triangle as its pair tests read it.
+#[derive(Clone, Copy)]
+struct LeafTri {
+    t: u32,
+    bbox: Aabb,
+    v: [u32; 3],
+}
+
+impl Default for LeafTri {
+    fn default() -> Self {
+        LeafTri {
+            t: 0,
+            bbox: Aabb::EMPTY,
+            v: [0; 3],
+        }
     }
 }
 
