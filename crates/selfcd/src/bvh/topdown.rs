@@ -39,7 +39,7 @@ use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 use std::sync::OnceLock;
 
 /// Nodes of at most this many triangles are tested pair by pair.
-const LEAF: usize = 8;
+const LEAF: usize = 16;
 /// Nodes of at least this many triangles run their halves as parallel tasks.
 const PAR_MIN: usize = 2048;
 /// Triangles per parallel task of one node's certificate passes.
