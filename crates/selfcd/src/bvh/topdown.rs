@@ -71,14 +71,9 @@ fn run(mesh: &Mesh, positions: &[DVec3], first: bool) -> Found {
     if n < 2 {
         return Found::default();
     }
-    let (mut q, bbox) = Query::new(mesh, positions);
+    let (mut q, fit) = Query::new(mesh, positions);
     q.first = first;
-    let mut root = Node {
-        range: 0..n as u32,
-        bbox,
-        kids: None,
-        patch: None,
-    };
+    let mut root = Node::new(0..n as u32, fit);
     q.self_test(&mut root)
 }
 
@@ -110,6 +105,8 @@ struct Query<'a> {
 struct Node {
     range: Range<u32>,
     bbox: Aabb,
+    /// Sum of the unit normals and their largest error bound (see [`Fit`]).
+    normals: Option<(DVec3, f64)>,
     kids: Option<Box<[Node; 2]>>,
     patch: Option<Patch>,
 }
@@ -128,8 +125,54 @@ struct Patch {
 }
 
 impl Node {
+    fn new(range: Range<u32>, fit: Fit) -> Node {
+        Node {
+            range,
+            bbox: fit.bbox,
+            normals: fit.normals,
+            kids: None,
+            patch: None,
+        }
+    }
+
     fn len(&self) -> usize {
         self.range.len()
+    }
+}
+
+/// A box and the sum of unit normals with their largest error bound
+/// (`None` once a triangle without a normal is in), fitted in one pass.
+#[derive(Clone, Copy)]
+struct Fit {
+    bbox: Aabb,
+    normals: Option<(DVec3, f64)>,
+}
+
+impl Fit {
+    const EMPTY: Fit = Fit {
+        bbox: Aabb::EMPTY,
+        normals: Some((DVec3::ZERO, 0.0)),
+    };
+
+    #[inline]
+    fn add(self, bbox: &Aabb, (n, e): (DVec3, f64)) -> Fit {
+        Fit {
+            bbox: self.bbox.union(bbox),
+            normals: self
+                .normals
+                .filter(|_| n != DVec3::ZERO)
+                .map(|(sum, err)| (sum + n, err.max(e))),
+        }
+    }
+
+    fn join(self, o: Fit) -> Fit {
+        Fit {
+            bbox: self.bbox.union(&o.bbox),
+            normals: self
+                .normals
+                .zip(o.normals)
+                .map(|((s, e), (t, f))| (s + t, e.max(f))),
+        }
     }
 }
 
@@ -157,13 +200,14 @@ struct Scratch {
 }
 
 impl<'a> Query<'a> {
-    /// The query's shared state, and the box of every triangle's corners.
-    fn new(mesh: &'a Mesh, x: &'a [DVec3]) -> (Query<'a>, Aabb) {
+    /// The query's shared state, and the fit of every triangle (summed in
+    /// order, so it does not depend on the thread count).
+    fn new(mesh: &'a Mesh, x: &'a [DVec3]) -> (Query<'a>, Fit) {
         let n = mesh.n_triangles();
         let mut normals = vec![(DVec3::ZERO, 0.0); n];
         let mut across = vec![[0u32; 3]; n];
         let mut edge_flags = vec![0u8; n];
-        let bbox = (
+        let fits: Vec<Fit> = (
             normals.par_chunks_mut(CHUNK),
             across.par_chunks_mut(CHUNK),
             edge_flags.par_chunks_mut(CHUNK),
@@ -171,18 +215,18 @@ impl<'a> Query<'a> {
             .into_par_iter()
             .enumerate()
             .map(|(k, (normals, across, flags))| {
-                let mut bbox = Aabb::EMPTY;
+                let mut fit = Fit::EMPTY;
                 for (i, t) in (k * CHUNK..).take(normals.len()).enumerate() {
                     let c = mesh.corners(x, t);
-                    bbox = bbox.union(&Aabb::from_points(&c));
                     if let Some(u) = NormalCone::unit_normal(c[0], c[1], c[2]) {
                         normals[i] = u;
                     }
+                    fit = fit.add(&Aabb::from_points(&c), normals[i]);
                     (across[i], flags[i]) = neighbours(mesh, t as u32);
                 }
-                bbox
+                fit
             })
-            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+            .collect();
         let ids = || (0..n as u32).map(AtomicU32::new).collect();
         let q = Query {
             mesh,
@@ -195,7 +239,7 @@ impl<'a> Query<'a> {
             order: ids(),
             pos: ids(),
         };
-        (q, bbox)
+        (q, fits.into_iter().fold(Fit::EMPTY, Fit::join))
     }
 
     /// Each triangle's box.
@@ -238,15 +282,11 @@ impl<'a> Query<'a> {
 
     fn node(&self, range: Range<u32>) -> Node {
         let boxes = self.boxes();
-        let bbox = range
-            .clone()
-            .fold(Aabb::EMPTY, |b, i| b.union(&boxes[self.tri(i) as usize]));
-        Node {
-            range,
-            bbox,
-            kids: None,
-            patch: None,
-        }
+        let fit = range.clone().fold(Fit::EMPTY, |fit, i| {
+            let t = self.tri(i) as usize;
+            fit.add(&boxes[t], self.normals[t])
+        });
+        Node::new(range, fit)
     }
 
     /// Every intersecting pair within `node`.
@@ -426,7 +466,7 @@ impl<'a> Query<'a> {
         if node.patch.is_none() {
             let ranges = [node.range.clone()];
             let mut p = Patch {
-                cone: self.cone(&ranges),
+                cone: self.cone(node),
                 ..Patch::default()
             };
             if p.cone.is_some() {
@@ -491,36 +531,31 @@ impl<'a> Query<'a> {
         star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops)
     }
 
-    /// The normal cone of the triangles in `ranges` about their mean
-    /// normal, when it is under 90 degrees. Pieces are summed in order, so
-    /// the axis does not depend on the thread count.
-    fn cone(&self, ranges: &[Range<u32>]) -> Option<NormalCone> {
-        let sums = self.pieces(ranges, |r| {
-            let (mut sum, mut err) = (DVec3::ZERO, 0.0f64);
+    /// The normal cone of `node`'s triangles about their mean normal, when
+    /// it is under 90 degrees: the normal farthest from the axis, the scan
+    /// stopping at one past 90 degrees.
+    fn cone(&self, node: &Node) -> Option<NormalCone> {
+        let (sum, err) = node.normals?;
+        let axis = sum.normalize_or_zero();
+        let least = self.pieces(std::slice::from_ref(&node.range), |r| {
+            let mut least = (f64::INFINITY, DVec3::ZERO);
             for i in r {
-                let (n, e) = self.normals[self.tri(i) as usize];
-                if n == DVec3::ZERO {
+                let n = self.normals[self.tri(i) as usize].0;
+                let dot = axis.dot(n);
+                if dot < 0.0 {
                     return None;
                 }
-                sum += n;
-                err = err.max(e);
+                if dot < least.0 {
+                    least = (dot, n);
+                }
             }
-            Some((sum, err))
+            Some(least)
         });
-        let (mut sum, mut err) = (DVec3::ZERO, 0.0f64);
-        for (s, e) in sums.into_iter().collect::<Option<Vec<_>>>()? {
-            sum += s;
-            err = err.max(e);
-        }
-        let axis = sum.normalize_or_zero();
-        let least = self.pieces(ranges, |r| {
-            r.map(|i| self.normals[self.tri(i) as usize].0)
-                .min_by(|p, q| axis.dot(*p).total_cmp(&axis.dot(*q)))
-        });
-        let least = least
+        let (_, least) = least
             .into_iter()
-            .flatten()
-            .min_by(|p, q| axis.dot(*p).total_cmp(&axis.dot(*q)))?;
+            .try_fold((f64::INFINITY, DVec3::ZERO), |a, b| {
+                b.map(|b| if b.0 < a.0 { b } else { a })
+            })?;
         NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)
     }
 
