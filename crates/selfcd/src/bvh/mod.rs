@@ -5,6 +5,10 @@
 //! arrays indexed by node id: nodes `0..n` are the leaves (leaf `i` holds
 //! triangle `i`), internal nodes follow in creation order, so every child has a
 //! smaller id than its parent and the root is the last node.
+//!
+//! A one-shot query (no later frames to amortise a build over) uses its own
+//! hierarchy instead, built top-down only where its certificates fail
+//! ([`topdown`]).
 
 pub mod build;
 pub mod certify;

@@ -1,14 +1,25 @@
 //! A hierarchy built top-down, lazily, for one query: the one-shot
-//! [`self_intersections`](crate::detect::self_intersections).
+//! [`self_intersections`](crate::detect::self_intersections) and
+//! [`first_intersection`](crate::detect::first::first_intersection).
 //!
 //! The bottom-up hierarchy ([`super::build`]) fits every node's box, cone and
 //! patch up front, which a simulation pays once and amortises over frames. A
 //! one-shot query needs a node only where its parent's certificate failed:
-//! on a smooth sheet the root's certificate holds and nothing is split. Here
-//! a node is a range of a permutation of the triangles, split (only when a
-//! test needs its children) by the midpoint of its box's longest side, so
-//! children are ranges too and a triangle's membership in a node is a range
-//! test on its position in the permutation.
+//! on a smooth sheet the root's certificate holds and nothing is split (nor
+//! are the triangles' boxes fitted). Here a node is a range of a permutation
+//! of the triangles, split only when a test needs its children, at the
+//! midpoint of its box along the axis whose plane cuts the fewest triangle
+//! boxes, so children are ranges too and a triangle's membership in a node
+//! is a range test on its position in the permutation.
+//!
+//! ```text
+//! self(N)    = nothing if N's certificate holds; the pairs of a leaf (at most
+//!              LEAF triangles); else self(left), self(right), pair(left, right)
+//! pair(A, B) = nothing if the boxes are apart or the union's certificate
+//!              holds (A and B certified and adjacent); the pairs of two leaves;
+//!              else pair over the children of the bigger (of both, in
+//!              parallel tasks, when both are large)
+//! ```
 //!
 //! **Certificate.** [`super::certify`]'s theorem, for any set S of triangles
 //! (a node, or the union of two): every normal strictly within 90 degrees of
