@@ -842,4 +842,80 @@ mod tests {
         assert_eq!(pairs, pairs3);
         assert_eq!(counters, counters3);
     }
+
+    /// Every deformation of `v, f` against brute force (all pairs tested).
+    fn check_against_brute(v: &[[f64; 3]], f: &[[u32; 3]]) -> usize {
+        use crate::detect::brute::BruteDetector;
+        use crate::detect::Detector;
+        let mesh = std::sync::Arc::new(Mesh::new(v.to_vec(), f.to_vec()).unwrap());
+        let shapes = [
+            Deformation::Flat,
+            Deformation::Fold {
+                angle: 1.1 * std::f64::consts::PI,
+                radius: 0.02,
+            },
+            Deformation::Crumple {
+                amplitude: 0.3,
+                wavelength: 0.35,
+                seed: 3,
+            },
+            Deformation::Twist { turns: 1.2 },
+            Deformation::ZFold {
+                layers: 3,
+                gap: 0.0,
+            },
+        ];
+        let mut found = 0;
+        for d in shapes {
+            let p = d.apply(mesh.rest());
+            let want = BruteDetector::new(mesh.clone(), 0.0)
+                .detect(&p)
+                .unwrap()
+                .pairs;
+            assert_eq!(self_intersections(&mesh, &p).0, want, "{d:?}");
+            assert_eq!(
+                first_intersection(&mesh, &p).is_some(),
+                !want.is_empty(),
+                "{d:?}"
+            );
+            found += want.len();
+        }
+        found
+    }
+
+    #[test]
+    fn flipped_fins_and_pinches_match_brute_force() {
+        let (v, f) = grid(24, 1.0);
+        // Every seventh triangle wound the other way (its edges run with their neighbours').
+        let flipped: Vec<[u32; 3]> = f
+            .iter()
+            .enumerate()
+            .map(|(k, t)| if k % 7 == 0 { [t[0], t[2], t[1]] } else { *t })
+            .collect();
+        // A fin: a third triangle on each edge of a row (edges in three triangles).
+        let mut fin_v = v.clone();
+        let mut fin_f = f.clone();
+        for k in 0..20u32 {
+            let (a, b) = (24 * 10 + k, 24 * 10 + k + 1);
+            let [x, y, _] = v[a as usize];
+            fin_v.push([x + 0.01, y, 0.05]);
+            fin_f.push([a, b, fin_v.len() as u32 - 1]);
+        }
+        // Two sheets pinched at one vertex (a vertex with two fans).
+        let (w, g) = grid(16, 1.0);
+        let corner = (16 * 16 - 1) as u32;
+        let mut pinch_v = w.clone();
+        let offset = pinch_v.len() as u32 - 1;
+        pinch_v.extend(w.iter().skip(1).map(|p| [p[0] + 1.0, p[1] + 1.0, p[2]]));
+        let mut pinch_f = g.clone();
+        pinch_f.extend(
+            g.iter()
+                .map(|t| t.map(|i| if i == 0 { corner } else { i + offset })),
+        );
+        let mut total = 0;
+        for (v, f) in [(&v, &flipped), (&fin_v, &fin_f), (&pinch_v, &pinch_f)] {
+            total += check_against_brute(v, f);
+        }
+        assert!(total > 50, "the deformations should intersect ({total})");
+    }
 }
