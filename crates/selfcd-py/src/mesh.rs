@@ -147,8 +147,8 @@ pub fn self_intersections<'py>(
 }
 
 /// Early-exit query: some intersecting non-adjacent face pair `(i, j)`, i < j,
-/// or None; stops the traversal at the first one found. `positions` as in
-/// [`self_intersections`].
+/// or None; the one-shot query stopping at the first one found. `positions`
+/// as in [`self_intersections`].
 #[pyfunction]
 #[pyo3(signature = (mesh, positions=None))]
 pub fn first_intersection(
