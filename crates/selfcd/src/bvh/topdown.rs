@@ -286,11 +286,13 @@ impl<'a> Query<'a> {
         pieces.into_par_iter().map(&op).collect()
     }
 
+    /// The triangle at position `i` of the permutation.
     #[inline]
     fn tri(&self, i: u32) -> u32 {
         self.order[i as usize].load(Relaxed)
     }
 
+    /// The node of the triangles at positions `range`, fitted.
     fn node(&self, range: Range<u32>) -> Node {
         let boxes = self.boxes();
         let fit = range.clone().fold(Fit::EMPTY, |fit, i| {
@@ -399,12 +401,12 @@ impl<'a> Query<'a> {
     }
 
     /// Partitions `node`'s range at the midpoint of its box along the axis
-    /// whose halves' boxes overlap least (by the overlap's surface area;
-    /// ties to the longest side): stacked layers are split apart rather than
-    /// cut across, which would leave every part with all the layers. The
-    /// middle of the range is taken instead when the midpoint leaves a side
-    /// with under 1/16 of it, so the depth stays logarithmic. Returns where
-    /// the second part starts.
+    /// whose plane there cuts the fewest triangle boxes (ties to the longest
+    /// side): stacked layers are split apart rather than cut across, which
+    /// would leave every part with all the layers (and the pair of parts
+    /// with a seam through every layer). The middle of the range is taken
+    /// instead when the midpoint leaves a side with under 1/16 of it, so the
+    /// depth stays logarithmic. Returns where the second part starts.
     fn partition(&self, node: &Node) -> u32 {
         let Range { start, end } = node.range.clone();
         let boxes = self.boxes();
