@@ -10,6 +10,7 @@ use crate::union_find;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 /// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to `i`.
 #[derive(Debug, Clone, Default)]
@@ -46,25 +47,50 @@ impl Csr {
     /// Kept apart from `from_pairs` for speed: fed those pairs by an iterator
     /// chain, `Mesh::new` at 200k took 17.2 ms instead of 12.4 (one thread).
     pub fn from_triples(rows: usize, triples: &[[u32; 3]]) -> Csr {
-        let mut offsets = vec![0u32; rows + 1];
-        for x in triples {
-            for &r in x {
-                offsets[r as usize + 1] += 1;
+        Csr::from_triples_first(rows, triples).0
+    }
+
+    /// [`from_triples`](Self::from_triples), and for each triple which of
+    /// its entries are the first item of their row (bit k for entry k), found
+    /// by the counting pass for free.
+    fn from_triples_first(rows: usize, triples: &[[u32; 3]]) -> (Csr, Vec<u8>) {
+        let mut counts = vec![0u32; rows + 1];
+        let first = (triples.iter())
+            .map(|x| {
+                let mut bits = 0;
+                for (k, &r) in x.iter().enumerate() {
+                    let c = &mut counts[r as usize];
+                    bits |= ((*c == 0) as u8) << k;
+                    *c += 1;
+                }
+                bits
+            })
+            .collect();
+        (Csr::fill(counts, triples), first)
+    }
+
+    /// Rows of `counts[r]` items (`counts` has one spare entry at the end),
+    /// row `r` listing every `t` with `r` in `triples[t]`, increasing. The
+    /// counts become each row's end, and a backward fill moves every end to
+    /// its row's start: no cursor array.
+    fn fill(mut counts: Vec<u32>, triples: &[[u32; 3]]) -> Csr {
+        let mut sum = 0;
+        for c in &mut counts {
+            sum += *c;
+            *c = sum;
+        }
+        let mut items = vec![0u32; sum as usize];
+        for (t, x) in triples.iter().enumerate().rev() {
+            for &r in x.iter().rev() {
+                let end = &mut counts[r as usize];
+                *end -= 1;
+                items[*end as usize] = t as u32;
             }
         }
-        for i in 0..rows {
-            offsets[i + 1] += offsets[i];
+        Csr {
+            offsets: counts,
+            items,
         }
-        let mut fill = offsets[..rows].to_vec();
-        let mut items = vec![0u32; 3 * triples.len()];
-        for (t, x) in triples.iter().enumerate() {
-            for &r in x {
-                let at = &mut fill[r as usize];
-                items[*at as usize] = t as u32;
-                *at += 1;
-            }
-        }
-        Csr { offsets, items }
     }
 
     /// The items of row `i`.
@@ -104,19 +130,18 @@ impl Topology {
     /// triangles in increasing order. O(n): half-edges are bucketed by their
     /// smaller vertex (a counting sort), so no hashing and no global sort.
     pub fn new(n_vertices: usize, tris: &[[u32; 3]]) -> Topology {
-        let ((edges, tri_edges, edge_tris), vertex_tris) = rayon::join(
-            || {
-                let (edges, tri_edges) = unique_edges(n_vertices, tris);
-                let edge_tris = Csr::from_triples(edges.len(), &tri_edges);
-                (edges, tri_edges, edge_tris)
-            },
-            || Csr::from_triples(n_vertices, tris),
+        let (edge, (vertex_tris, vertex_owned)) = rayon::join(
+            || unique_edges(n_vertices, tris),
+            || Csr::from_triples_first(n_vertices, tris),
         );
-        let owned = owners(tris, &tri_edges, &vertex_tris, &edge_tris);
+        let mut owned = edge.owned;
+        for (o, v) in owned.iter_mut().zip(vertex_owned) {
+            *o |= v;
+        }
         Topology {
-            edges,
-            tri_edges,
-            edge_tris,
+            edges: edge.edges,
+            tri_edges: edge.tri_edges,
+            edge_tris: edge.edge_tris,
             vertex_tris,
             owned,
         }
@@ -130,72 +155,42 @@ impl Topology {
 
     /// The first pair `(first, second)` of triangles with the same vertex set,
     /// smallest `second` first (ties: smallest `first`), or None.
-    /// Two such triangles share all three edges, so it is enough to compare
-    /// the third corners of the triangles on each edge.
+    /// A `second` shares all three edges with its `first`, an earlier
+    /// triangle, so it owns none of them: only such triangles (none on a
+    /// strip-ordered sheet) are looked at, each by comparing the third
+    /// corners of the earlier triangles on its first edge.
     fn first_duplicate(&self, tris: &[[u32; 3]]) -> Option<(usize, usize)> {
-        let third = |t: u32, [a, b]: [u32; 2]| {
+        let third = |t: u32, a: u32, b: u32| {
             let v = tris[t as usize];
             v[0] as u64 + v[1] as u64 + v[2] as u64 - a as u64 - b as u64
         };
-        let offsets = &self.edge_tris.offsets;
-        // Edges in fixed chunks, each scanned by a plain loop (most rows hold
-        // one or two triangles, too little work for a parallel task each).
-        (0..self.edges.len().div_ceil(CHECK_CHUNK))
-            .into_par_iter()
-            .filter_map(|c| {
-                let mut best: Option<(usize, usize)> = None;
-                for e in c * CHECK_CHUNK..((c + 1) * CHECK_CHUNK).min(self.edges.len()) {
-                    if offsets[e + 1] - offsets[e] < 2 {
-                        continue;
-                    }
-                    let (row, ends) = (self.edge_tris.row(e), self.edges[e]);
-                    // Rows are increasing, so (tj, ti) is (second, first).
-                    for (j, &tj) in row.iter().enumerate().skip(1) {
-                        for &ti in &row[..j] {
-                            let key = (tj as usize, ti as usize);
-                            if third(ti, ends) == third(tj, ends) && best.is_none_or(|b| key < b) {
-                                best = Some(key);
-                            }
-                        }
-                    }
-                }
-                best
+        (self.owned.iter().enumerate())
+            .filter(|(_, &o)| o & 0o70 == 0)
+            .find_map(|(t, _)| {
+                let [a, b, _] = tris[t];
+                let row = self.edge_tris.row(self.tri_edges[t][0] as usize);
+                (row.iter().take_while(|&&s| (s as usize) < t))
+                    .find(|&&s| third(s, a, b) == third(t as u32, a, b))
+                    .map(|&s| (s as usize, t))
             })
-            .min()
-            .map(|(second, first)| (first, second))
     }
 }
 
-/// Edges or triangles per parallel task of the checks in [`Topology::first_duplicate`]
-/// and [`Mesh::new`].
+/// Triangles per parallel task of the validity check in [`Mesh::new`].
 const CHECK_CHUNK: usize = 4096;
 
-/// [`Topology::owned`]: each vertex and edge is owned by the first triangle
-/// of its row, so one pass over the rows marks them (a scatter, O(vertices +
-/// edges), instead of asking every triangle about its six elements).
-fn owners(
-    tris: &[[u32; 3]],
-    tri_edges: &[[u32; 3]],
-    vertex_tris: &Csr,
-    edge_tris: &Csr,
-) -> Vec<u8> {
-    let mut owned = vec![0u8; tris.len()];
-    let mut mark = |rows: &Csr, of: &[[u32; 3]], bit: u8| {
-        for r in 0..rows.rows() {
-            if let Some(&t) = rows.row(r).first() {
-                let k = of[t as usize].iter().position(|&x| x as usize == r);
-                owned[t as usize] |= bit << k.unwrap_or(0);
-            }
-        }
-    };
-    mark(vertex_tris, tris, 1);
-    mark(edge_tris, tri_edges, 8);
-    owned
+/// The edge half of a [`Topology`]: its `edges`, `tri_edges` and
+/// `edge_tris`, and the edge bits (3 + k) of `owned`.
+struct EdgeTopology {
+    edges: Vec<[u32; 2]>,
+    tri_edges: Vec<[u32; 3]>,
+    edge_tris: Csr,
+    owned: Vec<u8>,
 }
 
 /// Unique undirected edges (smaller vertex first), numbered in order of first
-/// appearance, and each triangle's edge ids.
-fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u32; 3]>) {
+/// appearance, each triangle's edge ids, each edge's triangles and owner.
+fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> EdgeTopology {
     /// The ends of side k of triangle `v`, smaller first.
     #[inline]
     fn side(v: &[u32; 3], k: usize) -> (u32, u32) {
@@ -204,7 +199,7 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u3
     }
     // Counting sort of the half-edges by their smaller vertex, each stored
     // as `larger vertex << 32 | half-edge index` (half-edge 3 t + k is side
-    // k of triangle t).
+    // k of triangle t), so each bucket is in increasing half-edge order.
     let mut start = vec![0u32; n_vertices + 1];
     for v in tris {
         for k in 0..3 {
@@ -224,24 +219,30 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u3
             *c += 1;
         }
     }
-    // Within a bucket, sorted keys with the same larger vertex are one edge;
-    // `first[h]` is the first half-edge of h's edge.
-    let mut first = vec![0u32; keys.len()];
-    for v in 0..n_vertices {
-        let bucket = &mut keys[start[v] as usize..start[v + 1] as usize];
-        bucket.sort_unstable();
-        let mut lead = (u32::MAX, 0);
-        for &key in bucket.iter() {
-            let (hi, h) = ((key >> 32) as u32, key as u32);
-            if hi != lead.0 {
-                lead = (hi, h);
-            }
-            first[h as usize] = lead.1;
+    drop(cursor);
+    // `first[h]` (then h's edge id, in place) is the first half-edge of h's edge: the first in its bucket
+    // with the same larger vertex. `seen[hi]` holds `lo << 32 | first` for
+    // the last bucket `lo` that met `hi` (no sort; a bucket never equals
+    // u32::MAX, the larger vertex of nothing).
+    let mut tri_edges = vec![[0u32; 3]; tris.len()];
+    let first = tri_edges.as_flattened_mut();
+    let mut seen = vec![u64::MAX; n_vertices];
+    for lo in 0..n_vertices {
+        for &key in &keys[start[lo] as usize..start[lo + 1] as usize] {
+            let (hi, h) = ((key >> 32) as usize, key as u32);
+            let s = seen[hi];
+            let lead = if s >> 32 == lo as u64 { s as u32 } else { h };
+            seen[hi] = (lo as u64) << 32 | lead as u64;
+            first[h as usize] = lead;
         }
     }
-    // Number edges at their first half-edge; later half-edges copy the id
+    drop((keys, seen, start));
+    // Number edges at their first half-edge, whose triangle owns the edge
+    // (rows of `edge_tris` are increasing); later half-edges copy the id
     // (`first[h] < h` is already renumbered when h is reached).
-    let mut edges = Vec::with_capacity(keys.len() / 2 + 1);
+    let mut edges = Vec::with_capacity(first.len() / 2 + 1);
+    let mut counts = Vec::with_capacity(first.len() / 2 + 2);
+    let mut owned = vec![0u8; tris.len()];
     for (t, v) in tris.iter().enumerate() {
         for k in 0..3 {
             let h = 3 * t + k;
@@ -249,14 +250,23 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> (Vec<[u32; 2]>, Vec<[u3
             first[h] = if f == h {
                 let (lo, hi) = side(v, k);
                 edges.push([lo, hi]);
+                counts.push(1);
+                owned[t] |= 8 << k;
                 (edges.len() - 1) as u32
             } else {
-                first[f]
+                let e = first[f];
+                counts[e as usize] += 1;
+                e
             };
         }
     }
-    let tri_edges = first.chunks_exact(3).map(|e| [e[0], e[1], e[2]]).collect();
-    (edges, tri_edges)
+    counts.push(0);
+    EdgeTopology {
+        edge_tris: Csr::fill(counts, &tri_edges),
+        edges,
+        tri_edges,
+        owned,
+    }
 }
 
 /// A triangle mesh with validated rest positions and its topology.
@@ -265,7 +275,9 @@ pub struct Mesh {
     rest: Vec<DVec3>,
     tris: Vec<[u32; 3]>,
     topo: Topology,
-    mean_edge: f64,
+    /// Computed on first use: the one-shot query never asks (a square root
+    /// per edge, 1.1 ms of `Mesh::new`'s 11 at 200k).
+    mean_edge: OnceLock<f64>,
 }
 
 impl Mesh {
@@ -312,12 +324,11 @@ impl Mesh {
         if let Some((first, second)) = topo.first_duplicate(&triangles) {
             return Err(Error::DuplicateTriangle { first, second });
         }
-        let mean_edge = mean_length(topo.edges.iter().map(|e| edge_length(&rest, *e)));
         Ok(Mesh {
             rest,
             tris: triangles,
             topo,
-            mean_edge,
+            mean_edge: OnceLock::new(),
         })
     }
 
@@ -348,7 +359,8 @@ impl Mesh {
 
     /// Mean rest edge length: the length unit of the sensor.
     pub fn mean_edge_length(&self) -> f64 {
-        self.mean_edge
+        let edges = self.topo.edges.iter();
+        *(self.mean_edge).get_or_init(|| mean_length(edges.map(|e| edge_length(&self.rest, *e))))
     }
 
     /// True when `positions` are the rest shape: the rest slice itself (known
@@ -779,6 +791,25 @@ mod tests {
             let want = first_error_reference(&f, v.len()).map(|e| e.to_string());
             assert_eq!(got, want);
         }
+    }
+
+    /// A duplicate whose earlier copy owns none of its edges (each edge has
+    /// an earlier fin) is still found.
+    #[test]
+    fn a_duplicate_behind_fins_is_named() {
+        let v = vec![[0.0; 3]; 6];
+        let f = vec![
+            [0, 1, 3],
+            [1, 2, 4],
+            [2, 0, 5],
+            [0, 1, 2],
+            [3, 4, 5],
+            [1, 2, 0],
+        ];
+        let got = Mesh::new(v.clone(), f.clone()).err().map(|e| e.to_string());
+        let want = first_error_reference(&f, v.len()).map(|e| e.to_string());
+        assert_eq!(got, want);
+        assert!(got.is_some_and(|e| e.contains('3') && e.contains('5')));
     }
 
     /// The first bad triangle in order, by the definition.
