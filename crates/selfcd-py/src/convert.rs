@@ -55,11 +55,16 @@ pub fn triples(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 
 pub fn triangles(a: &PyReadonlyArray2<'_, i64>) -> PyResult<Vec<[u32; 3]>> {
     check_cols(a.shape(), "faces")?;
     if let Some(flat) = a.as_slice().ok().filter(|_| a.is_c_contiguous()) {
-        // C order, the common case: one pass over the buffer.
-        let fits = flat.iter().all(|&i| u32::try_from(i).is_ok());
-        if fits {
-            let tri = |c: &[i64]| [c[0] as u32, c[1] as u32, c[2] as u32];
-            return Ok(flat.chunks_exact(3).map(tri).collect());
+        // C order, the common case: one pass over the buffer, converting
+        // while it gathers the high bits (set for any index out of u32).
+        let mut high = 0;
+        let tri = |c: &[i64; 3]| {
+            high |= (c[0] | c[1] | c[2]) >> 32;
+            c.map(|i| i as u32)
+        };
+        let out: Vec<[u32; 3]> = flat.as_chunks().0.iter().map(tri).collect();
+        if high == 0 {
+            return Ok(out);
         }
     }
     let view = a.as_array();

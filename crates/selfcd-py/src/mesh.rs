@@ -1,7 +1,7 @@
 //! `Mesh`: a validated triangle mesh shared by detectors.
 
 use crate::contacts::impacts_dict;
-use crate::convert::{pairs_array, points, points_array, rows_array, triangles};
+use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -42,16 +42,11 @@ impl PyMesh {
         faces: PyReadonlyArray2<'_, i64>,
         screen_positions: bool,
     ) -> PyResult<Self> {
-        let v = points(&vertices, "vertices")?;
-        let f = triangles(&faces)?;
-        let (mesh, may_repeat) = py.detach(|| {
-            let repeats = !screen_positions || selfcd::weld::may_repeat_positions(&v);
-            // In place: `DVec3` and `[f64; 3]` have one layout.
-            let v = v.into_iter().map(|p| p.to_array()).collect();
-            (guard("Mesh()", || Mesh::new(v, f)), repeats)
-        });
+        let (v, f) = (triples(&vertices, "vertices")?, triangles(&faces)?);
+        let built = py.detach(|| guard("Mesh()", || Mesh::screened(v, f, screen_positions)));
+        let (mesh, may_repeat) = built?;
         Ok(PyMesh {
-            inner: Arc::new(mesh?),
+            inner: Arc::new(mesh),
             may_repeat,
         })
     }

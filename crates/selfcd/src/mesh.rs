@@ -298,6 +298,17 @@ impl Mesh {
     /// refused too: they are adjacent, so their contact is never a
     /// self-intersection, and one of them is a duplicate to remove.
     pub fn new(vertices: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Result<Mesh> {
+        Mesh::screened(vertices, triangles, false).map(|(mesh, _)| mesh)
+    }
+
+    /// [`new`](Self::new), and whether some vertices may share a position:
+    /// with `screen`, [`may_repeat_positions`](crate::weld::may_repeat_positions)
+    /// of the vertices, run beside the topology (true without `screen`).
+    pub fn screened(
+        vertices: Vec<[f64; 3]>,
+        triangles: Vec<[u32; 3]>,
+        screen: bool,
+    ) -> Result<(Mesh, bool)> {
         if vertices.is_empty() {
             return Err(Error::EmptyMesh("no vertices"));
         }
@@ -306,7 +317,6 @@ impl Mesh {
         }
         // In place: `[f64; 3]` and `DVec3` have one layout, so no new buffer.
         let rest: Vec<DVec3> = vertices.into_iter().map(DVec3::from_array).collect();
-        check_finite(&rest)?;
         let n = rest.len();
         let invalid = |t: &[u32; 3]| {
             t.iter().any(|&v| v as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
@@ -317,19 +327,26 @@ impl Mesh {
             (triangles.par_chunks(CHECK_CHUNK).enumerate()).find_map_first(|(c, chunk)| {
                 chunk.iter().position(invalid).map(|k| c * CHECK_CHUNK + k)
             });
-        if let Some(i) = first_bad {
-            return Err(first_invalid(&triangles[..=i], n));
-        }
-        let topo = Topology::new(n, &triangles);
+        // The positions' checks beside the topology (which needs valid
+        // triangles only); errors in the order the checks are documented.
+        let (repeats, topo) = rayon::join(
+            || check_finite(&rest).map(|()| !screen || crate::weld::may_repeat_positions(&rest)),
+            || match first_bad {
+                Some(i) => Err(first_invalid(&triangles[..=i], n)),
+                None => Ok(Topology::new(n, &triangles)),
+            },
+        );
+        let (repeats, topo) = (repeats?, topo?);
         if let Some((first, second)) = topo.first_duplicate(&triangles) {
             return Err(Error::DuplicateTriangle { first, second });
         }
-        Ok(Mesh {
+        let mesh = Mesh {
             rest,
             tris: triangles,
             topo,
             mean_edge: OnceLock::new(),
-        })
+        };
+        Ok((mesh, repeats))
     }
 
     /// Rest positions.
