@@ -220,10 +220,10 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> EdgeTopology {
         }
     }
     drop(cursor);
-    // `first[h]` (then h's edge id, in place) is the first half-edge of h's edge: the first in its bucket
-    // with the same larger vertex. `seen[hi]` holds `lo << 32 | first` for
-    // the last bucket `lo` that met `hi` (no sort; a bucket never equals
-    // u32::MAX, the larger vertex of nothing).
+    // `first[h]` is the first half-edge of h's edge: the first in its bucket
+    // with the same larger vertex (then, in place, h's edge id). `seen[hi]`
+    // holds `lo << 32 | first` for the last bucket `lo` that met `hi` (no
+    // sort; no bucket is u32::MAX, the smaller vertex of nothing).
     let mut tri_edges = vec![[0u32; 3]; tris.len()];
     let first = tri_edges.as_flattened_mut();
     let mut seen = vec![u64::MAX; n_vertices];
