@@ -22,10 +22,8 @@ fn check_cols(shape: &[usize], what: &str) -> PyResult<()> {
 /// common case, and Fortran order, a transpose's, read in one pass each).
 pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DVec3>> {
     check_cols(a.shape(), what)?;
-    // (`as_slice` also gives a Fortran-order array's memory: check the order.)
-    if let Some(flat) = a.as_slice().ok().filter(|_| a.is_c_contiguous()) {
-        let p = flat.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2]));
-        return Ok(p.collect());
+    if let Some(rows) = c_rows(a) {
+        return Ok(rows.iter().map(|&r| DVec3::from_array(r)).collect());
     }
     let view = a.as_array();
     if let Some(cols) = view.t().as_slice() {
@@ -46,8 +44,20 @@ pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<DVec3>>
         .collect())
 }
 
-/// An (n,3) float64 array as coordinate triples.
+/// The rows of a C-order (n,3) array, in numpy's memory.
+fn c_rows<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> Option<&'a [[f64; 3]]> {
+    // (`as_slice` also gives a Fortran-order array's memory: check the order.)
+    let flat = a.as_slice().ok().filter(|_| a.is_c_contiguous())?;
+    Some(flat.as_chunks().0)
+}
+
+/// An (n,3) float64 array as coordinate triples (C order: one copy of the
+/// buffer, not a conversion to points and back).
 pub fn triples(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]>> {
+    check_cols(a.shape(), what)?;
+    if let Some(rows) = c_rows(a) {
+        return Ok(rows.to_vec());
+    }
     Ok(points(a, what)?.into_iter().map(|p| p.to_array()).collect())
 }
 

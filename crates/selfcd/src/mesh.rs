@@ -901,6 +901,38 @@ mod tests {
         ));
     }
 
+    /// `screened` gives `new`'s mesh and errors, and the weld screen's answer.
+    #[test]
+    fn screened_is_new_with_the_screen() {
+        let (v, f) = tangled(3);
+        let (m, repeats) = Mesh::screened(v.clone(), f.clone(), true).unwrap();
+        let rest: Vec<DVec3> = v.iter().map(|&p| DVec3::from_array(p)).collect();
+        assert_eq!(repeats, crate::weld::may_repeat_positions(&rest));
+        assert!(!repeats && Mesh::screened(v.clone(), f.clone(), false).unwrap().1);
+        assert_eq!(
+            m.topology().edges,
+            Mesh::new(v.clone(), f.clone()).unwrap().topology().edges
+        );
+        let mut twin = v.clone();
+        twin[1] = twin[0];
+        assert!(Mesh::screened(twin, f.clone(), true).unwrap().1);
+        // A non-finite vertex is named before a bad triangle, as `new` does.
+        let (mut nan, mut bad) = (v, f);
+        nan[4][2] = f64::INFINITY;
+        bad[7] = [0, 0, 1];
+        let err = Mesh::screened(nan, bad, true).err().map(|e| e.to_string());
+        assert_eq!(
+            err,
+            Some(
+                Error::NonFinite {
+                    vertex: 4,
+                    value: f64::INFINITY
+                }
+                .to_string()
+            )
+        );
+    }
+
     #[test]
     fn mean_edge_length_at_any_scale() {
         let (v, f) = quad();
