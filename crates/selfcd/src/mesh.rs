@@ -176,7 +176,7 @@ impl Topology {
     }
 }
 
-/// Triangles per parallel task of the validity check in [`Mesh::new`].
+/// Triangles per parallel task of the validity check in [`Mesh::screened`].
 const CHECK_CHUNK: usize = 4096;
 
 /// The edge half of a [`Topology`]: its `edges`, `tri_edges` and
