@@ -468,6 +468,7 @@ impl<'a> Query<'a> {
         range.start + half as u32
     }
 
+    /// Puts triangle `t` at position `i`.
     #[inline]
     fn place(&self, i: u32, t: u32) {
         self.order[i as usize].store(t, Relaxed);
@@ -498,6 +499,7 @@ impl<'a> Query<'a> {
         let Some(cone) = p.cone else {
             return false;
         };
+        f.counters.contour_tests += 1;
         let ok = p.disk && self.height_field(cone.axis, &bbox, &p.contour, f);
         f.counters.contour_fails += !ok as u64;
         node.patch.as_mut().unwrap().certified = ok;
@@ -507,7 +509,7 @@ impl<'a> Query<'a> {
     /// The certificate of the union of `a` and `b`, tried only when their
     /// merged cone is under 90 degrees and their contours share a vertex
     /// (patches apart have two loops, which the test refuses).
-    fn union_certified(&self, a: &mut Node, b: &mut Node, f: &mut Found) -> bool {
+    fn union_certified(&self, a: &Node, b: &Node, f: &mut Found) -> bool {
         let (Some(pa), Some(pb)) = (&a.patch, &b.patch) else {
             return false;
         };
@@ -521,6 +523,7 @@ impl<'a> Query<'a> {
         if !ca.merge_is_positive(&cb) || !have_common(&pa.boundary, &pb.boundary) {
             return false;
         }
+        f.counters.contour_tests += 1;
         let ranges = [a.range.clone(), b.range.clone()];
         let mut contour = std::mem::take(&mut f.scratch.contour);
         let ok = self.disk_contour(&ranges, &mut contour)
@@ -533,7 +536,6 @@ impl<'a> Query<'a> {
     /// Is `contour` projected along unit `axis` one loop around the
     /// centre of `bbox` (star test) or one simple counter-clockwise loop?
     fn height_field(&self, axis: DVec3, bbox: &Aabb, contour: &[[u32; 2]], f: &mut Found) -> bool {
-        f.counters.contour_tests += 1;
         let s = &mut f.scratch;
         let plane = Plane::new(axis, bbox.center());
         s.segs.clear();
