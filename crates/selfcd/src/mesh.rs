@@ -269,6 +269,12 @@ fn unique_edges(n_vertices: usize, tris: &[[u32; 3]]) -> EdgeTopology {
     }
 }
 
+/// True when triangles (vertex ids) `a` and `b` share at least one vertex.
+#[inline]
+pub fn share_vertex(a: &[u32; 3], b: &[u32; 3]) -> bool {
+    a.iter().any(|v| b.contains(v))
+}
+
 /// A triangle mesh with validated rest positions and its topology.
 #[derive(Debug, Clone)]
 pub struct Mesh {
@@ -415,8 +421,7 @@ impl Mesh {
     /// True when triangles `a` and `b` share at least one vertex.
     #[inline]
     pub fn share_vertex(&self, a: usize, b: usize) -> bool {
-        let (ta, tb) = (&self.tris[a], &self.tris[b]);
-        ta.iter().any(|v| tb.contains(v))
+        share_vertex(&self.tris[a], &self.tris[b])
     }
 
     /// Component id of every triangle, numbered 0.. in order of each

@@ -41,7 +41,7 @@ use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
 use crate::geom::loop2d::{simple_ccw_loop, star_about, LoopScratch, Plane, Seg};
 use crate::geom::{Aabb, NormalCone};
-use crate::mesh::Mesh;
+use crate::mesh::{share_vertex, Mesh};
 use crate::stats::Counters;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -82,10 +82,11 @@ fn run(mesh: &Mesh, positions: &[DVec3], first: bool) -> Found {
     if n < 2 {
         return Found::default();
     }
-    let (mut q, fit) = Query::new(mesh, positions);
-    q.first = first;
+    let (q, fit) = Query::new(mesh, positions, first);
     let mut root = Node::new(0..n as u32, fit);
-    q.self_test(&mut root)
+    let mut found = Found::default();
+    q.self_test(&mut root, &mut found);
+    found
 }
 
 /// What a query shares between its tasks. `order` is the permutation whose
@@ -111,27 +112,21 @@ struct Query<'a> {
     pos: Vec<AtomicU32>,
 }
 
-/// A range of the permutation, its box, its children once split, and its
-/// patch once a test needed it.
+/// A range of the permutation, its box, its children once split, and what
+/// the union test needs of it once its own certificate held.
 struct Node {
     range: Range<u32>,
     bbox: Aabb,
     /// Sum of the unit normals and their largest error bound (see [`Fit`]).
     normals: Option<(DVec3, f64)>,
     kids: Option<Box<[Node; 2]>>,
-    patch: Option<Patch>,
+    cert: Option<Cert>,
 }
 
-/// What the certificates need of a node: its cone when under 90 degrees,
-/// and then whether it is a disk (module doc), its contour (directed vertex
-/// pairs) and the sorted vertices of that contour.
-#[derive(Default)]
-struct Patch {
-    cone: Option<NormalCone>,
-    disk: bool,
-    /// The self-certificate held (set by [`Query::self_certified`]).
-    certified: bool,
-    contour: Vec<[u32; 2]>,
+/// A node whose self-certificate held: its cone and the sorted vertices of
+/// its contour (the union test's adjacency check).
+struct Cert {
+    cone: NormalCone,
     boundary: Vec<u32>,
 }
 
@@ -142,7 +137,7 @@ impl Node {
             bbox: fit.bbox,
             normals: fit.normals,
             kids: None,
-            patch: None,
+            cert: None,
         }
     }
 
@@ -213,7 +208,7 @@ struct Scratch {
 impl<'a> Query<'a> {
     /// The query's shared state, and the fit of every triangle (summed in
     /// order, so it does not depend on the thread count).
-    fn new(mesh: &'a Mesh, x: &'a [DVec3]) -> (Query<'a>, Fit) {
+    fn new(mesh: &'a Mesh, x: &'a [DVec3], first: bool) -> (Query<'a>, Fit) {
         let n = mesh.n_triangles();
         let mut normals = vec![(DVec3::ZERO, 0.0); n];
         let mut across = vec![[0u32; 3]; n];
@@ -242,7 +237,7 @@ impl<'a> Query<'a> {
         let q = Query {
             mesh,
             x,
-            first: false,
+            first,
             boxes: OnceLock::new(),
             normals,
             across,
@@ -302,31 +297,34 @@ impl<'a> Query<'a> {
         Node::new(range, fit)
     }
 
-    /// Every intersecting pair within `node`.
-    fn self_test(&self, node: &mut Node) -> Found {
-        let mut f = Found::default();
+    /// Every intersecting pair within `node`, into `f`.
+    fn self_test(&self, node: &mut Node, f: &mut Found) {
         if node.len() <= LEAF {
-            self.leaf_self(node, &mut f);
-            return f;
+            return self.leaf_self(node, f);
         }
-        if self.self_certified(node, &mut f) {
+        if self.self_certified(node, f) {
             f.counters.self_culls += 1;
-            return f;
+            return;
         }
         let parallel = !self.first && node.len() >= PAR_MIN;
         let [a, b] = self.kids(node);
         if parallel {
-            let (fa, fb) = rayon::join(|| self.self_test(a), || self.self_test(b));
-            f.absorb(fa);
-            f.absorb(fb);
+            let ((), other) = rayon::join(
+                || self.self_test(a, f),
+                || {
+                    let mut other = Found::default();
+                    self.self_test(b, &mut other);
+                    other
+                },
+            );
+            f.absorb(other);
         } else {
-            f.absorb(self.self_test(a));
-            if !self.done(&f) {
-                f.absorb(self.self_test(b));
+            self.self_test(a, f);
+            if !self.done(f) {
+                self.self_test(b, f);
             }
         }
-        self.pair_test(a, b, &mut f);
-        f
+        self.pair_test(a, b, f);
     }
 
     /// Has a first-pair query found its pair?
@@ -475,34 +473,23 @@ impl<'a> Query<'a> {
         self.pos[t as usize].store(i, Relaxed);
     }
 
-    /// The patch of `node`, found now if it is not yet.
-    fn patch<'n>(&self, node: &'n mut Node) -> &'n Patch {
-        if node.patch.is_none() {
-            let ranges = [node.range.clone()];
-            let mut p = Patch {
-                cone: self.cone(node),
-                ..Patch::default()
-            };
-            if p.cone.is_some() {
-                p.disk = self.disk_contour(&ranges, &mut p.contour);
-                p.boundary = starts(&p.contour);
-            }
-            node.patch = Some(p);
-        }
-        node.patch.as_ref().unwrap()
-    }
-
-    /// The self-certificate of `node` (module doc); counted in `f`.
+    /// The self-certificate of `node` (module doc), kept in the node when
+    /// it holds; counted in `f`.
     fn self_certified(&self, node: &mut Node, f: &mut Found) -> bool {
-        let bbox = node.bbox;
-        let p = self.patch(node);
-        let Some(cone) = p.cone else {
+        let Some(cone) = node.normals.and_then(|n| self.cone(node, n)) else {
             return false;
         };
         f.counters.contour_tests += 1;
-        let ok = p.disk && self.height_field(cone.axis, &bbox, &p.contour, f);
+        let mut contour = std::mem::take(&mut f.scratch.contour);
+        let range = std::slice::from_ref(&node.range);
+        let ok = self.disk_contour(range, &mut contour)
+            && self.height_field(cone.axis, &node.bbox, &contour, f);
+        if ok {
+            let boundary = starts(&contour);
+            node.cert = Some(Cert { cone, boundary });
+        }
+        f.scratch.contour = contour;
         f.counters.contour_fails += !ok as u64;
-        node.patch.as_mut().unwrap().certified = ok;
         ok
     }
 
@@ -510,15 +497,10 @@ impl<'a> Query<'a> {
     /// merged cone is under 90 degrees and their contours share a vertex
     /// (patches apart have two loops, which the test refuses).
     fn union_certified(&self, a: &Node, b: &Node, f: &mut Found) -> bool {
-        let (Some(pa), Some(pb)) = (&a.patch, &b.patch) else {
+        let (Some(pa), Some(pb)) = (&a.cert, &b.cert) else {
             return false;
         };
-        if !(pa.certified && pb.certified) {
-            return false;
-        }
-        let (Some(ca), Some(cb)) = (pa.cone, pb.cone) else {
-            return false;
-        };
+        let (ca, cb) = (pa.cone, pb.cone);
         let (box_a, box_b) = (a.bbox, b.bbox);
         if !ca.merge_is_positive(&cb) || !have_common(&pa.boundary, &pb.boundary) {
             return false;
@@ -546,11 +528,11 @@ impl<'a> Query<'a> {
         star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops)
     }
 
-    /// The normal cone of `node`'s triangles about their mean normal, when
-    /// it is under 90 degrees: the normal farthest from the axis, the scan
-    /// stopping at one past 90 degrees.
-    fn cone(&self, node: &Node) -> Option<NormalCone> {
-        let (sum, err) = node.normals?;
+    /// The normal cone of `node`'s triangles (unit normals summing to `sum`,
+    /// erring by at most `err`) about their mean normal, when it is under 90
+    /// degrees: the normal farthest from the axis, the scan stopping at one
+    /// past 90 degrees.
+    fn cone(&self, node: &Node, (sum, err): (DVec3, f64)) -> Option<NormalCone> {
         let axis = sum.normalize_or_zero();
         let least = self.pieces(std::slice::from_ref(&node.range), |r| {
             let mut least = (f64::INFINITY, DVec3::ZERO);
@@ -692,7 +674,7 @@ impl<'a> Query<'a> {
         if !p.bbox.overlaps(&q.bbox) {
             return;
         }
-        if p.v.iter().any(|v| q.v.contains(v)) {
+        if share_vertex(&p.v, &q.v) {
             f.counters.adjacent_skips += 1;
             return;
         }
@@ -768,7 +750,7 @@ mod tests {
     /// `disk_contour` of all the triangles of a mesh.
     fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
         let mesh = Mesh::new(v.to_vec(), f.to_vec()).unwrap();
-        let (q, _) = Query::new(&mesh, mesh.rest());
+        let (q, _) = Query::new(&mesh, mesh.rest(), false);
         let all = 0..f.len() as u32;
         q.disk_contour(std::slice::from_ref(&all), &mut Vec::new())
     }
