@@ -2,7 +2,7 @@
 //! false negatives against intersections found by dense discrete sampling.
 
 use glam::DVec3;
-use selfcd::detect::continuous::{element_toi, Impacts};
+use selfcd::detect::continuous::{continuous_impacts, element_toi, Impacts};
 use selfcd::detect::hierarchy::BvhDetector;
 use selfcd::detect::narrow::ElementPair;
 use selfcd::geom::distance::HullCull;
@@ -101,21 +101,41 @@ fn flat(i: &Impacts) -> Vec<(ElementPair, f64)> {
         .collect()
 }
 
+/// A continuous query: on a kept hierarchy, or the one-shot one.
+type Query = fn(&Arc<Mesh>, &[DVec3], &[DVec3], f64) -> Impacts;
+
+/// Both continuous queries, by name.
+fn queries() -> [(&'static str, Query); 2] {
+    fn kept(m: &Arc<Mesh>, x0: &[DVec3], x1: &[DVec3], xi: f64) -> Impacts {
+        let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
+        det.continuous(x0, x1, xi).unwrap()
+    }
+    fn one_shot(m: &Arc<Mesh>, x0: &[DVec3], x1: &[DVec3], xi: f64) -> Impacts {
+        continuous_impacts(m, x0, x1, xi).unwrap().0
+    }
+    [("kept", kept), ("one-shot", one_shot)]
+}
+
+/// With a thickness nothing is certified: both queries give exactly the
+/// element-pair loop (at thickness 0, see `swept_certificate_keeps_every_contact`).
 #[test]
 fn bvh_query_matches_the_element_pair_loop() {
     let m = mesh(9);
     for (name, a, b) in steps() {
         let (x0, x1) = (a.apply(m.rest()), b.apply(m.rest()));
         for xi in [0.0, 0.02] {
-            let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
-            let got = det.continuous(&x0, &x1, xi).unwrap();
             let mut want = naive(&m, &x0, &x1, xi);
             want.sort_by_key(|(p, _)| *p);
-            let mut have = flat(&got);
-            have.sort_by_key(|(p, _)| *p);
             let touches = name != "fold-close" || xi > 0.0;
             assert_eq!(!want.is_empty(), touches, "{name}: something within {xi}?");
-            assert_eq!(have, want, "{name}, xi {xi}");
+            for (query, run) in queries() {
+                if xi == 0.0 && query == "one-shot" {
+                    continue;
+                }
+                let mut have = flat(&run(&m, &x0, &x1, xi));
+                have.sort_by_key(|(p, _)| *p);
+                assert_eq!(have, want, "{query}: {name}, xi {xi}");
+            }
         }
     }
 }
@@ -188,21 +208,26 @@ fn swept_certificate_keeps_every_contact() {
                 *p = DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z) + DVec3::splat(0.7)
             });
         }
-        let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
-        let got = flat(&det.continuous(&x0, &x1, 0.0).unwrap());
         let want = naive(&m, &x0, &x1, 0.0);
-        for g in &got {
-            assert!(
-                want.contains(g),
-                "{name}: {g:?} not in the element-pair loop"
-            );
+        for (query, run) in queries() {
+            let got = flat(&run(&m, &x0, &x1, 0.0));
+            for g in &got {
+                assert!(
+                    want.contains(g),
+                    "{query}, {name}: {g:?} not in the element-pair loop"
+                );
+            }
+            for w in want.iter().filter(|w| !got.contains(w)) {
+                let d = sampled_min_distance(&m, &x0, &x1, w.0, 2000);
+                assert!(
+                    d > 1e-4,
+                    "{query}, {name}: {w:?} dropped but comes within {d}"
+                );
+            }
+            let touches =
+                name != "fold-close" && !["bend", "twist", "still", "noise"].contains(&name);
+            assert_eq!(!got.is_empty(), touches, "{query}, {name}: contact found?");
         }
-        for w in want.iter().filter(|w| !got.contains(w)) {
-            let d = sampled_min_distance(&m, &x0, &x1, w.0, 2000);
-            assert!(d > 1e-4, "{name}: {w:?} dropped but comes within {d}");
-        }
-        let touches = name != "fold-close" && !["bend", "twist", "still", "noise"].contains(&name);
-        assert_eq!(!got.is_empty(), touches, "{name}: contact found?");
     }
 }
 
@@ -215,8 +240,10 @@ fn no_intersection_is_reached_before_the_reported_time() {
             self_intersections(&m, &x0).unwrap().is_empty(),
             "{name} must start clean"
         );
-        let mut det = BvhDetector::new(m.clone(), Method::Bvh, 0.0);
-        let impacts = flat(&det.continuous(&x0, &x1, 0.0).unwrap());
+        let impacts: Vec<_> = queries()
+            .iter()
+            .map(|(_, run)| flat(&run(&m, &x0, &x1, 0.0)))
+            .collect();
         let mut checked = 0;
         for k in 1..=64 {
             let s = k as f64 / 64.0;
@@ -235,12 +262,14 @@ fn no_intersection_is_reached_before_the_reported_time() {
                             || (ea.contains(&e1) && eb.contains(&e0))
                     }
                 };
-                let first = impacts
-                    .iter()
-                    .filter(|(p, _)| covers(p))
-                    .map(|(_, t)| *t)
-                    .fold(f64::INFINITY, f64::min);
-                assert!(first <= s, "{name}: triangles {ta},{tb} intersect at t = {s}, first impact reported {first}");
+                for found in &impacts {
+                    let first = found
+                        .iter()
+                        .filter(|(p, _)| covers(p))
+                        .map(|(_, t)| *t)
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(first <= s, "{name}: triangles {ta},{tb} intersect at t = {s}, first impact reported {first}");
+                }
             }
         }
         assert!(
@@ -261,6 +290,13 @@ fn bad_inputs_are_errors() {
     nan[0].x = f64::NAN;
     assert!(det.continuous(&x, &nan, 0.0).is_err());
     assert_eq!(det.continuous(&x, &x, 0.0).unwrap(), Impacts::default());
+    assert!(continuous_impacts(&m, &x, &x[..3], 0.0).is_err());
+    assert!(continuous_impacts(&m, &x, &x, f64::INFINITY).is_err());
+    assert!(continuous_impacts(&m, &x, &nan, 0.0).is_err());
+    assert_eq!(
+        continuous_impacts(&m, &x, &x, 0.0).unwrap().0,
+        Impacts::default()
+    );
 }
 
 /// Coherent queries (one hierarchy, candidate set reused across frames) give

@@ -39,7 +39,9 @@
 use crate::bvh::patch::have_common;
 use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
-use crate::geom::loop2d::{simple_ccw_loop, star_about, LoopScratch, Plane, Seg};
+use crate::geom::loop2d::{
+    simple_ccw_loop, star_about, swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
+};
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{share_vertex, Mesh};
 use crate::stats::Counters;
@@ -61,28 +63,113 @@ const TANGLED: u8 = 1;
 /// runs it in the same direction (inconsistent winding).
 const FLIPPED: u8 = 2;
 
+/// The triangles a query sees: at one set of positions, or swept linearly
+/// from the first to the second (each vertex moving on a line over the step).
+#[derive(Clone, Copy)]
+pub enum Shape<'a> {
+    /// The triangles at these positions.
+    At(&'a [DVec3]),
+    /// The triangles over the linear motion from `x0` to `x1`.
+    Swept(&'a [DVec3], &'a [DVec3]),
+}
+
+impl Shape<'_> {
+    /// The positions at the start (the only ones of [`Shape::At`]).
+    fn start(&self) -> &[DVec3] {
+        match *self {
+            Shape::At(x) | Shape::Swept(x, _) => x,
+        }
+    }
+
+    /// Triangle `t`'s box (over the whole motion).
+    #[inline]
+    fn bbox(&self, mesh: &Mesh, t: usize) -> Aabb {
+        match *self {
+            Shape::At(x) => Aabb::from_points(&mesh.corners(x, t)),
+            Shape::Swept(x0, x1) => Aabb::from_points(&mesh.corners(x0, t))
+                .union(&Aabb::from_points(&mesh.corners(x1, t))),
+        }
+    }
+
+    /// How many unit normals of each triangle the certificate reads: its
+    /// normal, or the three directions that hold it over the motion
+    /// ([`NormalCone::swept_unit_normals`]).
+    fn normals_per_triangle(&self) -> usize {
+        match self {
+            Shape::At(_) => 1,
+            Shape::Swept(..) => 3,
+        }
+    }
+
+    /// Triangle `t`'s unit normals with bounds on their angles to the
+    /// exact ones, into `out` ([`normals_per_triangle`](Self::normals_per_triangle)
+    /// of them); zero vectors where they are not known.
+    #[inline]
+    fn unit_normals(&self, mesh: &Mesh, t: usize, out: &mut [(DVec3, f64)]) {
+        let known = match *self {
+            Shape::At(x) => {
+                let c = mesh.corners(x, t);
+                NormalCone::unit_normal(c[0], c[1], c[2]).map(|u| out[0] = u)
+            }
+            Shape::Swept(x0, x1) => {
+                NormalCone::swept_unit_normals(mesh.corners(x0, t), mesh.corners(x1, t))
+                    .map(|u| out.copy_from_slice(&u))
+            }
+        };
+        if known.is_none() {
+            out.fill((DVec3::ZERO, 0.0));
+        }
+    }
+}
+
 /// All intersecting pairs of non-adjacent triangles of `mesh` at `positions`
 /// (`[i, j]`, i < j, sorted), with what the query did.
 pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, Counters) {
-    let mut out = run(mesh, positions, false);
-    out.pairs.sort_unstable();
-    (out.pairs, out.counters)
+    let visitor = Intersect { mesh, positions };
+    let (mut pairs, counters) = query(mesh, Shape::At(positions), 0.0, &visitor);
+    pairs.sort_unstable();
+    (pairs, counters)
 }
 
 /// Some intersecting pair of non-adjacent triangles (`[i, j]`, i < j), or
 /// None: the query of [`self_intersections`] stopping at its first pair.
 /// Its tests run in one order, so the pair is the same on every run.
 pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Option<[u32; 2]> {
-    run(mesh, positions, true).pairs.first().copied()
+    let visitor = Intersect { mesh, positions };
+    let found = run(mesh, Shape::At(positions), 0.0, &visitor, true);
+    found.items.first().copied()
+}
+
+/// What `visitor` reports on the triangle pairs of `shape` whose boxes are
+/// within `gap` of each other (`[lo, hi]` order, lo < hi; pairs sharing a
+/// vertex only where the visitor asks for them), in no set order, with what
+/// the query did. At gap 0 a node, or the union of two, whose certificate
+/// holds (over the whole motion for [`Shape::Swept`]) is not descended: no
+/// two elements of it that share no vertex touch, so `visitor` must report
+/// only such touching pairs there. Above 0 boxes alone cull.
+pub fn query<V: LeafVisitor>(
+    mesh: &Mesh,
+    shape: Shape,
+    gap: f64,
+    visitor: &V,
+) -> (Vec<V::Item>, Counters) {
+    let found = run(mesh, shape, gap, visitor, false);
+    (found.items, found.counters)
 }
 
 /// The query from the root, all pairs or (`first`) until one is found.
-fn run(mesh: &Mesh, positions: &[DVec3], first: bool) -> Found {
+fn run<V: LeafVisitor>(
+    mesh: &Mesh,
+    shape: Shape,
+    gap: f64,
+    visitor: &V,
+    first: bool,
+) -> Found<V::Item> {
     let n = mesh.n_triangles();
     if n < 2 {
         return Found::default();
     }
-    let (q, fit) = Query::new(mesh, positions, first);
+    let (q, fit) = Query::new(mesh, shape, gap, visitor, first);
     let mut root = Node::new(0..n as u32, fit);
     let mut found = Found::default();
     q.self_test(&mut root, &mut found);
@@ -92,16 +179,21 @@ fn run(mesh: &Mesh, positions: &[DVec3], first: bool) -> Found {
 /// What a query shares between its tasks. `order` is the permutation whose
 /// ranges are the nodes, `pos` its inverse; a task writes only the entries
 /// of the nodes it owns, so the relaxed atomics never race on a value.
-struct Query<'a> {
+struct Query<'a, V> {
     mesh: &'a Mesh,
-    x: &'a [DVec3],
+    shape: Shape<'a>,
+    /// Boxes within this gap are tested; certificates only at 0.
+    gap: f64,
+    visitor: &'a V,
     /// Stop at the first pair found, testing in one order (no parallel tasks).
     first: bool,
     /// Each triangle's box, fitted when the root is first split (a root
     /// that holds its certificate needs none).
     boxes: OnceLock<Vec<Aabb>>,
-    /// Unit normal of each triangle and a bound on its angle to the exact
-    /// one; a zero normal where none is known (the cone test then fails).
+    /// The unit normals of each triangle (`k` =
+    /// [`Shape::normals_per_triangle`] of them, at `k t..k t + k`), each with
+    /// a bound on its angle to the exact one; zero where none is known (the
+    /// cone test then fails). Empty when nothing is certified.
     normals: Vec<(DVec3, f64)>,
     /// The triangle across each edge of each triangle (itself where there
     /// is none: a border, or an edge in more than two triangles).
@@ -160,14 +252,21 @@ impl Fit {
         normals: Some((DVec3::ZERO, 0.0)),
     };
 
+    /// Adds a triangle's box and its unit normals (none when nothing is
+    /// certified: then the fit has no normals either).
     #[inline]
-    fn add(self, bbox: &Aabb, (n, e): (DVec3, f64)) -> Fit {
+    fn add(self, bbox: &Aabb, normals: &[(DVec3, f64)]) -> Fit {
+        let normals = match normals {
+            [] => None,
+            _ => self.normals.and_then(|start| {
+                normals.iter().try_fold(start, |(sum, err), &(n, e)| {
+                    (n != DVec3::ZERO).then(|| (sum + n, err.max(e)))
+                })
+            }),
+        };
         Fit {
             bbox: self.bbox.union(bbox),
-            normals: self
-                .normals
-                .filter(|_| n != DVec3::ZERO)
-                .map(|(sum, err)| (sum + n, err.max(e))),
+            normals,
         }
     }
 
@@ -183,16 +282,25 @@ impl Fit {
 }
 
 /// A task's findings.
-#[derive(Default)]
-struct Found {
-    pairs: Vec<[u32; 2]>,
+struct Found<T> {
+    items: Vec<T>,
     counters: Counters,
     scratch: Scratch,
 }
 
-impl Found {
-    fn absorb(&mut self, mut o: Found) {
-        self.pairs.append(&mut o.pairs);
+impl<T> Default for Found<T> {
+    fn default() -> Self {
+        Found {
+            items: Vec::new(),
+            counters: Counters::default(),
+            scratch: Scratch::default(),
+        }
+    }
+}
+
+impl<T> Found<T> {
+    fn absorb(&mut self, mut o: Found<T>) {
+        self.items.append(&mut o.items);
         self.counters.add(&o.counters);
     }
 }
@@ -202,41 +310,65 @@ impl Found {
 struct Scratch {
     contour: Vec<[u32; 2]>,
     segs: Vec<Seg>,
+    /// The contour at the end of a motion.
+    segs_end: Vec<Seg>,
     loops: LoopScratch,
 }
 
-impl<'a> Query<'a> {
+impl<'a, V: LeafVisitor> Query<'a, V> {
     /// The query's shared state, and the fit of every triangle (summed in
-    /// order, so it does not depend on the thread count).
-    fn new(mesh: &'a Mesh, x: &'a [DVec3], first: bool) -> (Query<'a>, Fit) {
+    /// order, so it does not depend on the thread count). What only the
+    /// certificates read is computed only at gap 0.
+    fn new(
+        mesh: &'a Mesh,
+        shape: Shape<'a>,
+        gap: f64,
+        visitor: &'a V,
+        first: bool,
+    ) -> (Query<'a, V>, Fit) {
         let n = mesh.n_triangles();
-        let mut normals = vec![(DVec3::ZERO, 0.0); n];
-        let mut across = vec![[0u32; 3]; n];
-        let mut edge_flags = vec![0u8; n];
-        let fits: Vec<Fit> = (
-            normals.par_chunks_mut(CHUNK),
-            across.par_chunks_mut(CHUNK),
-            edge_flags.par_chunks_mut(CHUNK),
-        )
-            .into_par_iter()
-            .enumerate()
-            .map(|(k, (normals, across, flags))| {
-                let mut fit = Fit::EMPTY;
-                for (i, t) in (k * CHUNK..).take(normals.len()).enumerate() {
-                    let c = mesh.corners(x, t);
-                    if let Some(u) = NormalCone::unit_normal(c[0], c[1], c[2]) {
-                        normals[i] = u;
-                    }
-                    fit = fit.add(&Aabb::from_points(&c), normals[i]);
+        let k = normals_read(shape, gap);
+        let m = if k > 0 { n } else { 0 };
+        let mut normals = vec![(DVec3::ZERO, 0.0); k * n];
+        let mut across = vec![[0u32; 3]; m];
+        let mut edge_flags = vec![0u8; m];
+        let fit_piece = |start: usize,
+                         normals: &mut [(DVec3, f64)],
+                         across: &mut [[u32; 3]],
+                         flags: &mut [u8]| {
+            let mut fit = Fit::EMPTY;
+            for (i, t) in (start..(start + CHUNK).min(n)).enumerate() {
+                let units = &mut normals[k * i..k * i + k];
+                if k > 0 {
+                    shape.unit_normals(mesh, t, units);
                     (across[i], flags[i]) = neighbours(mesh, t as u32);
                 }
-                fit
-            })
-            .collect();
+                fit = fit.add(&shape.bbox(mesh, t), units);
+            }
+            fit
+        };
+        let fits: Vec<Fit> = if k > 0 {
+            (
+                normals.par_chunks_mut(k * CHUNK),
+                across.par_chunks_mut(CHUNK),
+                edge_flags.par_chunks_mut(CHUNK),
+            )
+                .into_par_iter()
+                .enumerate()
+                .map(|(c, (normals, across, flags))| fit_piece(c * CHUNK, normals, across, flags))
+                .collect()
+        } else {
+            (0..n.div_ceil(CHUNK))
+                .into_par_iter()
+                .map(|c| fit_piece(c * CHUNK, &mut [], &mut [], &mut []))
+                .collect()
+        };
         let ids = || (0..n as u32).map(AtomicU32::new).collect();
         let q = Query {
             mesh,
-            x,
+            shape,
+            gap,
+            visitor,
             first,
             boxes: OnceLock::new(),
             normals,
@@ -254,7 +386,7 @@ impl<'a> Query<'a> {
         self.boxes.get_or_init(|| {
             (0..self.mesh.n_triangles())
                 .into_par_iter()
-                .map(|t| Aabb::from_points(&self.mesh.corners(self.x, t)))
+                .map(|t| self.shape.bbox(self.mesh, t))
                 .collect()
         })
     }
@@ -289,16 +421,16 @@ impl<'a> Query<'a> {
 
     /// The node of the triangles at positions `range`, fitted.
     fn node(&self, range: Range<u32>) -> Node {
-        let boxes = self.boxes();
+        let (boxes, k) = (self.boxes(), self.normals_per_triangle());
         let fit = range.clone().fold(Fit::EMPTY, |fit, i| {
             let t = self.tri(i) as usize;
-            fit.add(&boxes[t], self.normals[t])
+            fit.add(&boxes[t], &self.normals[k * t..k * t + k])
         });
         Node::new(range, fit)
     }
 
     /// Every intersecting pair within `node`, into `f`.
-    fn self_test(&self, node: &mut Node, f: &mut Found) {
+    fn self_test(&self, node: &mut Node, f: &mut Found<V::Item>) {
         if node.len() <= LEAF {
             return self.leaf_self(node, f);
         }
@@ -329,13 +461,19 @@ impl<'a> Query<'a> {
 
     /// Has a first-pair query found its pair?
     #[inline]
-    fn done(&self, f: &Found) -> bool {
-        self.first && !f.pairs.is_empty()
+    fn done(&self, f: &Found<V::Item>) -> bool {
+        self.first && !f.items.is_empty()
+    }
+
+    /// [`normals_read`] of this query.
+    #[inline]
+    fn normals_per_triangle(&self) -> usize {
+        normals_read(self.shape, self.gap)
     }
 
     /// Every intersecting pair with one triangle in `a`, one in `b`.
-    fn pair_test(&self, a: &mut Node, b: &mut Node, f: &mut Found) {
-        if self.done(f) || !a.bbox.overlaps(&b.bbox) {
+    fn pair_test(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
+        if self.done(f) || !a.bbox.within(&b.bbox, self.gap) {
             return;
         }
         f.counters.node_pairs += 1;
@@ -358,7 +496,7 @@ impl<'a> Query<'a> {
 
     /// [`pair_test`](Self::pair_test) of two large nodes by their four
     /// child pairs, two disjoint ones at a time in parallel tasks.
-    fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found) {
+    fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
         let [a0, a1] = self.kids(a);
         let [b0, b1] = self.kids(b);
         self.pair_tests_apart(a0, b0, a1, b1, f);
@@ -373,7 +511,7 @@ impl<'a> Query<'a> {
         q: &mut Node,
         r: &mut Node,
         s: &mut Node,
-        f: &mut Found,
+        f: &mut Found<V::Item>,
     ) {
         let ((), other) = rayon::join(
             || self.pair_test(p, q, f),
@@ -475,7 +613,7 @@ impl<'a> Query<'a> {
 
     /// The self-certificate of `node` (module doc), kept in the node when
     /// it holds; counted in `f`.
-    fn self_certified(&self, node: &mut Node, f: &mut Found) -> bool {
+    fn self_certified(&self, node: &mut Node, f: &mut Found<V::Item>) -> bool {
         let Some(cone) = node.normals.and_then(|n| self.cone(node, n)) else {
             return false;
         };
@@ -496,7 +634,7 @@ impl<'a> Query<'a> {
     /// The certificate of the union of `a` and `b`, tried only when their
     /// merged cone is under 90 degrees and their contours share a vertex
     /// (patches apart have two loops, which the test refuses).
-    fn union_certified(&self, a: &Node, b: &Node, f: &mut Found) -> bool {
+    fn union_certified(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) -> bool {
         let (Some(pa), Some(pb)) = (&a.cert, &b.cert) else {
             return false;
         };
@@ -516,16 +654,34 @@ impl<'a> Query<'a> {
     }
 
     /// Is `contour` projected along unit `axis` one loop around the
-    /// centre of `bbox` (star test) or one simple counter-clockwise loop?
-    fn height_field(&self, axis: DVec3, bbox: &Aabb, contour: &[[u32; 2]], f: &mut Found) -> bool {
+    /// centre of `bbox` (star test) or one simple counter-clockwise loop,
+    /// for the whole motion of a [`Shape::Swept`] (the swept tests of
+    /// [`crate::geom::loop2d`] on its projections at both ends)?
+    fn height_field(
+        &self,
+        axis: DVec3,
+        bbox: &Aabb,
+        contour: &[[u32; 2]],
+        f: &mut Found<V::Item>,
+    ) -> bool {
         let s = &mut f.scratch;
         let plane = Plane::new(axis, bbox.center());
-        s.segs.clear();
-        s.segs.extend(contour.iter().map(|&v| Seg {
-            p: v.map(|v| plane.project(self.x[v as usize])),
-            v,
-        }));
-        star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops)
+        let project = |x: &[DVec3], segs: &mut Vec<Seg>| {
+            segs.clear();
+            segs.extend(contour.iter().map(|&v| Seg {
+                p: v.map(|v| plane.project(x[v as usize])),
+                v,
+            }));
+        };
+        project(self.shape.start(), &mut s.segs);
+        match self.shape {
+            Shape::At(_) => star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops),
+            Shape::Swept(_, x1) => {
+                project(x1, &mut s.segs_end);
+                swept_star_about(&s.segs, &s.segs_end, [0.0; 2])
+                    || swept_simple_ccw_loop(&s.segs, &s.segs_end, &mut s.loops)
+            }
+        }
     }
 
     /// The normal cone of `node`'s triangles (unit normals summing to `sum`,
@@ -534,16 +690,19 @@ impl<'a> Query<'a> {
     /// past 90 degrees.
     fn cone(&self, node: &Node, (sum, err): (DVec3, f64)) -> Option<NormalCone> {
         let axis = sum.normalize_or_zero();
+        let k = self.normals_per_triangle();
         let least = self.pieces(std::slice::from_ref(&node.range), |r| {
             let mut least = (f64::INFINITY, DVec3::ZERO);
             for i in r {
-                let n = self.normals[self.tri(i) as usize].0;
-                let dot = axis.dot(n);
-                if dot < 0.0 {
-                    return None;
-                }
-                if dot < least.0 {
-                    least = (dot, n);
+                let t = self.tri(i) as usize;
+                for &(n, _) in &self.normals[k * t..k * t + k] {
+                    let dot = axis.dot(n);
+                    if dot < 0.0 {
+                        return None;
+                    }
+                    if dot < least.0 {
+                        least = (dot, n);
+                    }
                 }
             }
             Some(least)
@@ -630,7 +789,7 @@ impl<'a> Query<'a> {
     }
 
     /// Every intersecting pair within leaf `node`.
-    fn leaf_self(&self, node: &Node, f: &mut Found) {
+    fn leaf_self(&self, node: &Node, f: &mut Found<V::Item>) {
         let mut buf = [LeafTri::default(); LEAF];
         let leaf = self.leaf(node, &mut buf);
         for (i, p) in leaf.iter().enumerate() {
@@ -641,11 +800,11 @@ impl<'a> Query<'a> {
     }
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
-    fn leaf_pair(&self, a: &Node, b: &Node, f: &mut Found) {
+    fn leaf_pair(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) {
         let (mut buf_a, mut buf_b) = ([LeafTri::default(); LEAF], [LeafTri::default(); LEAF]);
         let (la, lb) = (self.leaf(a, &mut buf_a), self.leaf(b, &mut buf_b));
         for p in la {
-            if p.bbox.overlaps(&b.bbox) {
+            if p.bbox.within(&b.bbox, self.gap) {
                 for q in lb {
                     self.test(p, q, f);
                 }
@@ -668,23 +827,32 @@ impl<'a> Query<'a> {
         &buf[..node.len()]
     }
 
-    /// The exact test of two non-adjacent leaf triangles whose boxes meet.
+    /// The visitor's test of two leaf triangles whose boxes are within the
+    /// gap (unless they share a vertex and the visitor skips those).
     #[inline]
-    fn test(&self, p: &LeafTri, q: &LeafTri, f: &mut Found) {
-        if !p.bbox.overlaps(&q.bbox) {
+    fn test(&self, p: &LeafTri, q: &LeafTri, f: &mut Found<V::Item>) {
+        if !p.bbox.within(&q.bbox, self.gap) {
             return;
         }
-        if share_vertex(&p.v, &q.v) {
+        let adjacent = share_vertex(&p.v, &q.v);
+        if adjacent && V::SKIP_ADJACENT {
             f.counters.adjacent_skips += 1;
             return;
         }
         f.counters.primitive_tests += 1;
-        let visitor = Intersect {
-            mesh: self.mesh,
-            positions: self.x,
-        };
         let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
-        visitor.visit_counted(lo, hi, false, &mut f.pairs, &mut f.counters);
+        self.visitor
+            .visit_counted(lo, hi, adjacent, &mut f.items, &mut f.counters);
+    }
+}
+
+/// How many unit normals of each triangle a query of `shape` within `gap`
+/// reads: none unless it certifies (gap 0).
+fn normals_read(shape: Shape, gap: f64) -> usize {
+    if gap == 0.0 {
+        shape.normals_per_triangle()
+    } else {
+        0
     }
 }
 
@@ -750,7 +918,11 @@ mod tests {
     /// `disk_contour` of all the triangles of a mesh.
     fn whole_is_disk(v: &[[f64; 3]], f: &[[u32; 3]]) -> bool {
         let mesh = Mesh::new(v.to_vec(), f.to_vec()).unwrap();
-        let (q, _) = Query::new(&mesh, mesh.rest(), false);
+        let visitor = Intersect {
+            mesh: &mesh,
+            positions: mesh.rest(),
+        };
+        let (q, _) = Query::new(&mesh, Shape::At(mesh.rest()), 0.0, &visitor, false);
         let all = 0..f.len() as u32;
         q.disk_contour(std::slice::from_ref(&all), &mut Vec::new())
     }

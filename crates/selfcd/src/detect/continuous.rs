@@ -20,6 +20,7 @@ use super::hierarchy::BvhDetector;
 use super::narrow::{for_each_owned_pair, ElementPair};
 use super::Detector;
 use crate::bvh::certify::{BoxesOnly, SweptContourCull};
+use crate::bvh::topdown::{self, Shape};
 use crate::bvh::traverse::{traverse, LeafVisitor};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
@@ -179,6 +180,32 @@ pub(crate) fn candidate_toi(
         return None;
     }
     element_toi(mesh, x0, x1, pair, thickness).map(|toi| Impact { pair, toi })
+}
+
+/// Every element pair that may come within `thickness` (>= 0) while the
+/// mesh moves linearly from `x0` to `x1`, with conservative times of
+/// impact, and what the query did: the one-shot query, on a hierarchy built
+/// top-down only where it is needed ([`crate::bvh::topdown`]). At thickness
+/// 0 it skips the patches, and unions of two, whose swept certificate holds
+/// over the step (as [`SweptContourCull`] does on a kept hierarchy), so a
+/// sheet that bends little costs its normals and one certificate; with a
+/// thickness, boxes alone cull. For a hierarchy kept over many queries, see
+/// [`BvhDetector::continuous`] and [`super::coherent::SelfQueries`].
+pub fn continuous_impacts(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    thickness: f64,
+) -> Result<(Impacts, Counters)> {
+    check_args(mesh, x0, x1, thickness)?;
+    let visitor = Continuous {
+        mesh,
+        x0,
+        x1,
+        thickness,
+    };
+    let (items, counters) = topdown::query(mesh, Shape::Swept(x0, x1), thickness, &visitor);
+    Ok((Impacts::from_items(items), counters))
 }
 
 impl BvhDetector {

@@ -203,14 +203,34 @@ impl NormalCone {
     }
 
     /// The cone of triangle (a, b, c)'s normal over the whole of a linear
-    /// motion from corners `x0` to `x1`. With edges `e_k(t) = e_k + t d_k`, the
-    /// normal `n(t) = e1(t) x e2(t)` is quadratic in t: in the Bernstein basis
-    /// of [0, 1] its control vectors are `n(0)`, `n(0) + (e1 x d2 + d1 x e2) / 2`
-    /// and `n(1)`, and `n(t)` is a positive combination of them. So a cone
-    /// holding all three (each widened by its rounding) holds `n(t)` for every
-    /// t; if it is positive, no `n(t)` vanishes. A control vector too short
-    /// for its rounding gives the full cone.
+    /// motion from corners `x0` to `x1`: the cone of its
+    /// [`swept_unit_normals`](Self::swept_unit_normals), the full cone when
+    /// they are not known.
     pub fn of_swept_triangle(x0: [DVec3; 3], x1: [DVec3; 3]) -> NormalCone {
+        let Some(units) = Self::swept_unit_normals(x0, x1) else {
+            return NormalCone::FULL;
+        };
+        let [c0, c1, c2] = units.map(|(axis, err)| NormalCone {
+            axis,
+            quarter: Angle::ZERO.widen(0.5 * err),
+        });
+        // Equal cones (a triangle that does not move) are not merged: the
+        // merge of two cones on one axis can round to the full cone.
+        let merge = |a: NormalCone, b: NormalCone| if a == b { a } else { a.merge(&b) };
+        merge(merge(c0, c1), c2)
+    }
+
+    /// The directions of a triangle's normal over a linear motion from
+    /// corners `x0` to `x1`, as three unit vectors with bounds (radians) on
+    /// their angles to exact vectors whose positive combinations hold every
+    /// normal of the motion: with edges `e_k(t) = e_k + t d_k`, the normal
+    /// `n(t) = e1(t) x e2(t)` is quadratic in t; in the Bernstein basis of
+    /// [0, 1] its control vectors are `n(0)`, `n(0) + (e1 x d2 + d1 x e2) / 2`
+    /// and `n(1)`, and `n(t)` is a positive combination of them. So a cone
+    /// holding the three (each widened by its bound) holds `n(t)` for every
+    /// t, and if it is positive no `n(t)` vanishes. `None` when a control
+    /// vector is too short for its rounding (its bound would pass 1/8 radian).
+    pub fn swept_unit_normals(x0: [DVec3; 3], x1: [DVec3; 3]) -> Option<[(DVec3, f64); 3]> {
         let (e1, e2) = (x0[1] - x0[0], x0[2] - x0[0]);
         let (f1, f2) = (x1[1] - x1[0], x1[2] - x1[0]);
         let (d1, d2) = (f1 - e1, f2 - e2);
@@ -232,30 +252,24 @@ impl NormalCone {
         } else {
             2.0 * eps8 * (e1.length() + f1.length()) * (e2.length() + f2.length())
         };
-        let (c0, c1, c2) = (
-            Self::of_vector(n0, err0),
-            Self::of_vector(mid, err_mid),
-            Self::of_vector(n1, err1),
-        );
-        // Equal cones (a triangle that does not move) are not merged: the
-        // merge of two cones on one axis can round to the full cone.
-        let merge = |a: NormalCone, b: NormalCone| if a == b { a } else { a.merge(&b) };
-        merge(merge(c0, c1), c2)
+        Some([
+            Self::unit_within(n0, err0)?,
+            Self::unit_within(mid, err_mid)?,
+            Self::unit_within(n1, err1)?,
+        ])
     }
 
-    /// The cone of the directions within `err` (absolute) of vector `n`, or
-    /// the full cone when `n` is not 8 times longer than `err`.
-    fn of_vector(n: DVec3, err: f64) -> NormalCone {
+    /// Vector `n` (known within `err`, absolute) as a unit vector and a
+    /// bound (radians) on its angle to the exact one; `None` when `n` is not
+    /// 8 times longer than `err`.
+    fn unit_within(n: DVec3, err: f64) -> Option<(DVec3, f64)> {
         let len2 = n.length_squared();
         if !(len2 > 64.0 * err * err) {
-            return NormalCone::FULL;
+            return None;
         }
         // An angle of at most asin(x) <= 1.06 x for x = err / |n| <= 1/8.
         let inv = 1.0 / len2.sqrt();
-        NormalCone {
-            axis: n * inv,
-            quarter: Angle::ZERO.widen(0.5 * 1.06 * err * inv),
-        }
+        Some((n * inv, 1.06 * err * inv))
     }
 
     /// A cone from an axis (normalised here) and a half-angle in radians.
