@@ -521,3 +521,35 @@ fn repeated_continuous_queries_equal_fresh_ones() {
         "no repeat found anything: nothing tested"
     );
 }
+
+/// A power-of-two scale is exact, so both queries must give the same impact
+/// pairs at any scale (before the CCD normalised its stencils, a sheet at
+/// 2^300 or 2^-300 lost every impact and one at 2^600 gained thousands);
+/// at thickness 0 the one-shot query's certificate must not be fooled by
+/// overflowing or underflowing normals either.
+#[test]
+fn extreme_scales_give_the_same_impact_pairs() {
+    let m = mesh(9);
+    let keys = |i: &Impacts| flat(i).into_iter().map(|(p, _)| p).collect::<Vec<_>>();
+    let mut checked = 0;
+    for (name, a, b) in steps() {
+        let (x0, x1) = (a.apply(m.rest()), b.apply(m.rest()));
+        let unit: Vec<_> = queries()
+            .iter()
+            .map(|(_, run)| keys(&run(&m, &x0, &x1, 0.0)))
+            .collect();
+        for k in [-1000, -600, -300, 300, 600, 1000] {
+            let s = 2f64.powi(k);
+            let scaled = |x: &[DVec3]| x.iter().map(|p| *p * s).collect::<Vec<_>>();
+            let (y0, y1) = (scaled(&x0), scaled(&x1));
+            let rest: Vec<[f64; 3]> = scaled(m.rest()).iter().map(|p| p.to_array()).collect();
+            let ms = Arc::new(Mesh::new(rest, m.triangles().to_vec()).unwrap());
+            for ((query, run), want) in queries().iter().zip(&unit) {
+                let got = keys(&run(&ms, &y0, &y1, 0.0));
+                assert_eq!(&got, want, "{query}, {name}, scale 2^{k}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 4 * 6 * 2);
+}

@@ -7,8 +7,8 @@
 
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{distance2, StencilKind};
-use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2, HullCull};
+use crate::geom::ccd::{closest_within, StencilKind};
+use crate::geom::distance::HullCull;
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
@@ -237,12 +237,12 @@ impl<'a> Proximity<'a> {
     /// vertex, then the triangle's) when closer than the thickness.
     #[inline]
     fn near_vt(&self, vertex: u32, triangle: u32, c: &[DVec3; 4]) -> Option<Near> {
-        let (d2, bary) = point_triangle_distance2(c[0], c[1], c[2], c[3]);
-        (d2 < self.thickness * self.thickness).then(|| {
+        let within = closest_within(StencilKind::VertexTriangle, c, self.thickness);
+        within.map(|(distance, bary)| {
             Near::Vt(VertexTriangle {
                 vertex,
                 triangle,
-                distance: d2.sqrt(),
+                distance,
                 bary,
             })
         })
@@ -252,11 +252,11 @@ impl<'a> Proximity<'a> {
     /// smaller vertex first) when closer than the thickness.
     #[inline]
     fn near_ee(&self, e0: u32, e1: u32, c: &[DVec3; 4]) -> Option<Near> {
-        let (d2, s, t) = segment_segment_distance2(c[0], c[1], c[2], c[3]);
-        (d2 < self.thickness * self.thickness).then(|| {
+        let within = closest_within(StencilKind::EdgeEdge, c, self.thickness);
+        within.map(|(distance, [s, t, _])| {
             Near::Ee(EdgeEdge {
                 edges: [e0, e1],
-                distance: d2.sqrt(),
+                distance,
                 params: [s, t],
             })
         })
@@ -468,8 +468,7 @@ impl ElementPair {
 /// The distance of a stencil with corners `c` when it is below `gap`.
 #[inline]
 pub fn distance_below(kind: StencilKind, c: &[DVec3; 4], gap: f64) -> Option<f64> {
-    let d2 = distance2(kind, c);
-    (d2 < gap * gap).then(|| d2.sqrt())
+    closest_within(kind, c, gap).map(|(d, _)| d)
 }
 
 /// Sorts raw proximity contacts (each element pair is reported once, by its

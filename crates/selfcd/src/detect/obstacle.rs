@@ -14,8 +14,7 @@
 //! ([`intersections`]). The obstacle's own pairs are never tested.
 
 use crate::bvh::Bvh;
-use crate::geom::ccd::{time_of_impact, StencilKind};
-use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
+use crate::geom::ccd::{closest_within, time_of_impact, StencilKind};
 use crate::geom::tri_tri::triangles_intersect;
 use crate::mesh::Mesh;
 use glam::DVec3;
@@ -146,17 +145,10 @@ pub fn proximity(m: Meshes, x: &[DVec3], pairs: &[CrossPair], d: f64) -> Vec<Nea
         .iter()
         .filter_map(|&pair| {
             let (kind, ids) = m.stencil(pair);
-            let [p, a, b, c] = ids.map(|i| x[i as usize]);
-            let (d2, params) = match kind {
-                StencilKind::VertexTriangle => point_triangle_distance2(p, a, b, c),
-                StencilKind::EdgeEdge => {
-                    let (d2, s, t) = segment_segment_distance2(p, a, b, c);
-                    (d2, [s, t, 0.0])
-                }
-            };
-            (d2 < d * d).then(|| Near {
+            let c = ids.map(|i| x[i as usize]);
+            closest_within(kind, &c, d).map(|(distance, params)| Near {
                 pair,
-                distance: d2.sqrt(),
+                distance,
                 params,
             })
         })

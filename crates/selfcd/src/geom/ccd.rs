@@ -13,6 +13,7 @@
 //! within `thickness` (up to that resolution).
 
 use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
+use super::predicates::{exponent, mul_pow2};
 use glam::DVec3;
 
 /// Which element pair the four vertices of a stencil form (the one kind tag of
@@ -136,6 +137,7 @@ pub fn time_of_impact(
     x1: [DVec3; 4],
     thickness: f64,
 ) -> Option<f64> {
+    let (x0, x1, thickness) = normalized(x0, x1, thickness);
     if swept_apart(pair, &x0, &x1, thickness) || (thickness == 0.0 && never_coplanar(&x0, &x1)) {
         return None;
     }
@@ -178,6 +180,55 @@ pub fn time_of_impact(
         }
     }
     Some(t)
+}
+
+/// Moves `points` and `thickness` by one power of two `2^k` when the largest
+/// of their magnitudes lies outside [2^-200, 2^200], so that it lands in
+/// [1, 2): the distances of this module and [`super::distance`] multiply up
+/// to four coordinates, which over- or underflow beyond about 2^+-250 (at
+/// 2^300 a folding sheet lost every impact and every proximity contact).
+/// Scaling by a power of two is exact (down to 2^-1022 under the largest
+/// magnitude), so every answer is the unit-scale stencil's, at any scale.
+/// Returns the scaled thickness and `k` (0 when nothing moved).
+pub(crate) fn rescale(points: &mut [DVec3], thickness: f64) -> (f64, i32) {
+    let m = points
+        .iter()
+        .fold(thickness, |m, p| m.max(p.abs().max_element()));
+    if m == 0.0 || !m.is_finite() || exponent(m).abs() <= 200 {
+        return (thickness, 0);
+    }
+    let k = -exponent(m);
+    points.iter_mut().for_each(|p| *p = mul_pow2(*p, k));
+    (mul_pow2(thickness, k), k)
+}
+
+/// The distance of a stencil with corners `c` and its closest points
+/// (barycentric weights on the triangle, or the two edges' parameters and a
+/// 0) when it is strictly below `thickness`, at any scale ([`rescale`]).
+#[inline]
+pub fn closest_within(
+    kind: StencilKind,
+    c: &[DVec3; 4],
+    thickness: f64,
+) -> Option<(f64, [f64; 3])> {
+    let mut c = *c;
+    let (thickness, k) = rescale(&mut c, thickness);
+    let (d2, params) = match kind {
+        StencilKind::VertexTriangle => point_triangle_distance2(c[0], c[1], c[2], c[3]),
+        StencilKind::EdgeEdge => {
+            let (d2, s, t) = segment_segment_distance2(c[0], c[1], c[2], c[3]);
+            (d2, [s, t, 0.0])
+        }
+    };
+    (d2 < thickness * thickness).then(|| (mul_pow2(d2.sqrt(), -k), params))
+}
+
+/// [`rescale`] of a moving stencil (both ends) and its thickness.
+fn normalized(x0: [DVec3; 4], x1: [DVec3; 4], thickness: f64) -> ([DVec3; 4], [DVec3; 4], f64) {
+    let mut all = [x0[0], x0[1], x0[2], x0[3], x1[0], x1[1], x1[2], x1[3]];
+    let (thickness, _) = rescale(&mut all, thickness);
+    let [a, b, c, d, e, f, g, h] = all;
+    ([a, b, c, d], [e, f, g, h], thickness)
 }
 
 #[cfg(test)]
