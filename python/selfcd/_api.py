@@ -365,6 +365,12 @@ def continuous_impacts(
     within `thickness` is reported, with a time of impact in [0, 1] no later
     than when it does.
 
+    A one-shot query: its hierarchy is built top-down for this step alone, split
+    only where needed; at thickness 0 a part whose normals stay within 90 degrees
+    of one axis and whose boundary stays one simple loop over the step is not
+    descended (it cannot touch itself). For a sequence of steps,
+    `SelfQueries.continuous` keeps its work from step to step.
+
     Args:
         mesh: the mesh.
         x0, x1: (n, 3) float positions at the start and the end of the step.
@@ -386,6 +392,32 @@ def continuous_impacts(
         mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n),
         _arrays.number(thickness, "thickness")
     )
+
+
+def proximity_contacts(mesh: Mesh, positions: npt.ArrayLike, thickness: float,
+                       max_contacts: int | None = None) -> dict[str, np.ndarray]:
+    """Proximity query: element pairs closer than `thickness` at `positions`.
+
+    A one-shot query on a hierarchy built for this call alone. Its contacts are a
+    `Detector(mesh, thickness=thickness)`'s `last_proximity`, to the bit; for a
+    sequence of frames, `SelfQueries.proximity` keeps its work from frame to frame.
+
+    Args:
+        mesh: the mesh.
+        positions: (n, 3) float vertex positions.
+        thickness: report pairs strictly closer than this (> 0, finite).
+        max_contacts: most contacts collected before the query fails with
+            ValueError (default: a `Detector`'s, 20 million).
+
+    Returns:
+        "vertex_triangle" (k, 2) int64 (vertex, face), "vertex_triangle_distance"
+        (k,) and "vertex_triangle_bary" (k, 3); "edge_edge" (m, 2) int64 edge ids
+        (rows of `mesh.edges`), "edge_edge_vertices" (m, 4), "edge_edge_distance"
+        (m,) and "edge_edge_params" (m, 2); sorted by element ids.
+    """
+    return _core.proximity_contacts(
+        mesh._inner, _arrays.points(positions, "positions", mesh.n_vertices),
+        _arrays.number(thickness, "thickness"), max_contacts)
 
 
 def compare_methods(

@@ -85,6 +85,10 @@ class SelfQueries:
         """Vertex-triangle and edge-edge pairs closer than `thickness`."""
     def continuous(self, x0: np.ndarray, x1: np.ndarray, thickness: float) -> dict[str, np.ndarray]:
         """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
+
+def proximity_contacts(mesh: Mesh, positions: np.ndarray, thickness: float,
+                       max_contacts: int | None = None) -> dict[str, np.ndarray]:
+    """Vertex-triangle and edge-edge pairs closer than `thickness` at `positions` (one-shot)."""
     @property
     def skin(self) -> float:
         """The candidate sets' reach beyond the asked distance."""

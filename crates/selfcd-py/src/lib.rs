@@ -67,6 +67,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh::position_groups, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::first_intersection, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::continuous_impacts, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::proximity_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;
     m.add_function(wrap_pyfunction!(compare::reference_pairs, m)?)?;
     m.add_function(wrap_pyfunction!(bench::bench_scaling, m)?)?;

@@ -1,6 +1,6 @@
 //! `Mesh`: a validated triangle mesh shared by detectors.
 
-use crate::contacts::impacts_dict;
+use crate::contacts::{impacts_dict, proximity_dict};
 use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
 use numpy::{PyArray1, PyReadonlyArray2};
@@ -164,7 +164,8 @@ pub fn first_intersection(
 
 /// Continuous query: every vertex-triangle and edge-edge pair that comes within
 /// `thickness` while the mesh moves linearly from `x0` to `x1`, as a dict of
-/// (k,2) int64 pairs and (k,) float64 conservative times of impact in [0, 1].
+/// (k,2) int64 pairs and (k,) float64 conservative times of impact in [0, 1]:
+/// the one-shot query (`selfcd::detect::continuous::continuous_impacts`).
 #[pyfunction]
 #[pyo3(signature = (mesh, x0, x1, thickness=0.0))]
 pub fn continuous_impacts<'py>(
@@ -178,9 +179,32 @@ pub fn continuous_impacts<'py>(
     let m = mesh.inner.clone();
     let found = py.detach(|| {
         guard("continuous_impacts", || {
-            let mut det = selfcd::detect::hierarchy::BvhDetector::new(m, selfcd::Method::Bvh, 0.0);
-            det.continuous(&a, &b, thickness)
+            selfcd::detect::continuous::continuous_impacts(&m, &a, &b, thickness).map(|(i, _)| i)
         })
     })?;
     impacts_dict(py, &found)
+}
+
+/// One-shot proximity query: every vertex-triangle and edge-edge pair (not
+/// sharing a vertex) closer than `thickness` (> 0) at `positions`, as the dict
+/// of a `Detector`'s `last_proximity` (the same contacts, to the bit); at most
+/// `max_contacts` of them (default that of a `Detector`), else an error.
+#[pyfunction]
+#[pyo3(signature = (mesh, positions, thickness, max_contacts=None))]
+pub fn proximity_contacts<'py>(
+    py: Python<'py>,
+    mesh: &PyMesh,
+    positions: PyReadonlyArray2<'_, f64>,
+    thickness: f64,
+    max_contacts: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let x = points(&positions, "positions")?;
+    let m = mesh.inner.clone();
+    let max = max_contacts.unwrap_or(selfcd::detect::narrow::DEFAULT_MAX_CONTACTS);
+    let found = py.detach(|| {
+        guard("proximity_contacts", || {
+            selfcd::detect::proximity_contacts(&m, &x, thickness, max).map(|(p, _)| p)
+        })
+    })?;
+    proximity_dict(py, &found, &m)
 }

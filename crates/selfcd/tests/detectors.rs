@@ -5,6 +5,7 @@
 
 use glam::{DQuat, DVec3};
 use selfcd::detect::compare::diff_sorted;
+use selfcd::detect::proximity_contacts;
 use selfcd::scene::{grid, rigid, scale, Deformation, SplitMix};
 use selfcd::{new_detector, Detection, DetectorOptions, Mesh, Method};
 use std::f64::consts::PI;
@@ -340,6 +341,11 @@ fn proximity_matches_brute() {
                 kg.1.len()
             );
             assert!(got == want, "proximity distances differ on {mname}/{sname}");
+            let (one_shot, _) = proximity_contacts(&mesh, &p, d, usize::MAX).unwrap();
+            assert!(
+                one_shot == want,
+                "one-shot proximity differs on {mname}/{sname}"
+            );
         }
     }
 }
@@ -364,13 +370,15 @@ fn same_contacts_for_any_thread_count() {
                     det.stats.node_pairs,
                 ));
             }
-            d
+            let (near, c) = proximity_contacts(&mesh, &p, 0.004, usize::MAX).unwrap();
+            (d, near, c.primitive_tests, c.node_pairs)
         })
     };
     let one = run(1);
-    assert!(!one[0].0.is_empty());
+    assert!(!one.0[0].0.is_empty() && !one.1.is_empty());
     assert_eq!(one, run(2));
-    assert_eq!(one[0].0, detect(&mesh, Method::Brute, &p, 0.0).pairs);
+    assert_eq!(one.0[0].0, detect(&mesh, Method::Brute, &p, 0.0).pairs);
+    assert_eq!(one.1, one.0[0].1, "one-shot proximity against bvh's");
 }
 
 #[test]
@@ -399,6 +407,21 @@ fn bad_positions_are_errors_not_panics() {
         p[4].y = f64::INFINITY;
         assert!(d.detect(&p).is_err());
     }
+    let (x, mut bad) = (mesh.rest(), mesh.rest().to_vec());
+    bad[4].y = f64::INFINITY;
+    assert!(proximity_contacts(&mesh, &x[..3], 0.1, 100).is_err());
+    assert!(proximity_contacts(&mesh, &bad, 0.1, 100).is_err());
+    for d in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(
+            proximity_contacts(&mesh, x, d, 100).is_err(),
+            "thickness {d}"
+        );
+    }
+    // A thickness larger than the mesh: every non-incident pair is a contact.
+    assert!(matches!(
+        proximity_contacts(&mesh, x, 10.0, 100),
+        Err(selfcd::Error::TooManyContacts { limit: 100, .. })
+    ));
     assert!(new_detector(
         mesh,
         Method::Bvh,
@@ -414,10 +437,19 @@ fn bad_positions_are_errors_not_panics() {
 fn extreme_scales_give_the_same_pairs() {
     // Powers of two are exact, so every scale must give the unit answer; the
     // predicates would overflow at 2^360 and 2^1000 and underflow at 2^-900
-    // without the filter's bounds and the exact path's power-of-two scaling.
+    // without the filter's bounds and the exact path's power-of-two scaling,
+    // and the proximity distances without the stencils' (`ccd::rescale`).
     let (mesh, base) = crumpled_grid(13, 0.35, 0.4, 3);
     let want = detect(&mesh, Method::Brute, &base, 0.0).pairs;
     assert!(want.len() > 10, "the crumple should self-intersect");
+    let d = 0.6 * mesh.mean_edge_length();
+    let keys = |c: &selfcd::detect::ProximityContacts| {
+        let vt = c.vertex_triangle.iter().map(|x| [x.vertex, x.triangle]);
+        vt.chain(c.edge_edge.iter().map(|x| x.edges))
+            .collect::<Vec<_>>()
+    };
+    let near = keys(&proximity_contacts(&mesh, &base, d, usize::MAX).unwrap().0);
+    assert!(near.len() > 100);
     for e in [-1000, -900, -360, 360, 1000] {
         let s = 2f64.powi(e);
         let scaled_mesh = Arc::new(
@@ -433,6 +465,17 @@ fn extreme_scales_give_the_same_pairs() {
         }
         let one_shot = selfcd::self_intersections(&scaled_mesh, &p).unwrap();
         assert_eq!(one_shot, want, "the one-shot query at 2^{e}");
+        // Proximity: the distances multiply four coordinates, which over- and
+        // underflowed here before the stencils were rescaled (every contact
+        // lost at 2^+-1000, a third at 2^+-360).
+        let one_shot = proximity_contacts(&scaled_mesh, &p, d * s, usize::MAX)
+            .unwrap()
+            .0;
+        assert_eq!(keys(&one_shot), near, "one-shot proximity at 2^{e}");
+        for m in [Method::Brute, Method::Bvh, Method::BvhConesContour] {
+            let got = detect(&scaled_mesh, m, &p, d * s).proximity;
+            assert_eq!(keys(&got), near, "{m} proximity at 2^{e}");
+        }
     }
 }
 

@@ -251,5 +251,16 @@ mod tests {
         bvh.refit_swept(&mesh, &x0, &x1);
         let (_, c) = swept_query(&bvh, &mesh, &x0, &x1, 1e-3);
         assert!(c.self_culls == 0 && c.primitive_tests > 1000, "{c:?}");
+        // The one-shot query: one certificate, no triangle pair; with a
+        // thickness, the same pairs as the kept hierarchy's query.
+        let (found, c) = continuous_impacts(&mesh, &x0, &x1, 0.0).unwrap();
+        assert!(found.earliest().is_none());
+        assert_eq!(
+            (c.contour_tests, c.node_pairs, c.primitive_tests),
+            (1, 0, 0),
+            "{c:?}"
+        );
+        let kept = swept_query(&bvh, &mesh, &x0, &x1, 1e-3).0;
+        assert_eq!(continuous_impacts(&mesh, &x0, &x1, 1e-3).unwrap().0, kept);
     }
 }

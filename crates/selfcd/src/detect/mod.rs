@@ -26,7 +26,7 @@ pub mod sensor_gated;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use crate::sensor::SensorParams;
-use crate::stats::FrameStats;
+use crate::stats::{Counters, FrameStats};
 use glam::DVec3;
 pub use narrow::{EdgeEdge, ProximityContacts, VertexTriangle};
 use std::str::FromStr;
@@ -186,4 +186,34 @@ pub fn new_detector(
 pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[u32; 2]>> {
     mesh.check_positions(positions)?;
     Ok(crate::bvh::topdown::self_intersections(mesh, positions).0)
+}
+
+/// One-shot proximity query: every vertex-triangle and edge-edge pair (not
+/// sharing a vertex) closer than `thickness` (> 0, finite) at `positions`,
+/// sorted as a [`Detector`]'s proximity contacts and equal to them to the bit
+/// (the same box test within `thickness`, the same element arithmetic), with
+/// what the query did. At most `max_contacts` contacts are collected; past it
+/// the query fails with [`Error::TooManyContacts`].
+///
+/// Runs on the one-shot's top-down hierarchy ([`crate::bvh::topdown`]), split
+/// wherever two boxes come within `thickness` (normal cones do not bound
+/// distances, so nothing is certified). A simulation, which asks every step,
+/// keeps [`coherent::SelfQueries`] instead.
+pub fn proximity_contacts(
+    mesh: &Mesh,
+    positions: &[DVec3],
+    thickness: f64,
+    max_contacts: usize,
+) -> Result<(ProximityContacts, Counters)> {
+    mesh.check_positions(positions)?;
+    if !(thickness > 0.0 && thickness.is_finite()) {
+        return Err(Error::InvalidParameter(format!(
+            "thickness must be positive and finite, got {thickness}"
+        )));
+    }
+    let near = narrow::Proximity::new(mesh, positions, thickness, max_contacts);
+    let shape = crate::bvh::topdown::Shape::At(positions);
+    let (items, counters) = crate::bvh::topdown::query(mesh, shape, thickness, &near);
+    near.check_output()?;
+    Ok((narrow::collect_proximity(items), counters))
 }
