@@ -1,4 +1,4 @@
-"""Continuous queries from Python: impacts found, conservative, bad input rejected."""
+"""Continuous and one-shot proximity queries from Python: impacts found, conservative, bad input rejected."""
 
 import numpy as np
 import pytest
@@ -53,3 +53,39 @@ def test_bad_inputs_raise():
     bad[3, 1] = np.nan
     with pytest.raises(ValueError):
         selfcd.continuous_impacts(mesh, x0, bad)
+
+
+def test_one_shot_proximity_is_the_detectors():
+    """`proximity_contacts` (its hierarchy built for the call) gives a Detector's
+    proximity contacts to the bit, on a fold and on a crumple."""
+    mesh, F, x0, _ = _fold_step()
+    V = mesh.vertices
+    d = 0.6 * mesh.mean_edge_length
+    crumple = selfcd.scenes.deform(V, "crumple", amplitude=0.3, wavelength=0.4)
+    for x in (x0, crumple):
+        det = selfcd.Detector(mesh, thickness=d)
+        det.detect(x)
+        want = det.last_proximity
+        got = selfcd.proximity_contacts(mesh, x, d)
+        assert set(got) == set(want)
+        assert len(got["vertex_triangle"]) > 0 and len(got["edge_edge"]) > 0
+        for k in want:
+            assert np.array_equal(got[k], want[k]), k
+
+
+def test_one_shot_proximity_rejects_bad_input():
+    mesh, F, x0, _ = _fold_step()
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="thickness"):
+            selfcd.proximity_contacts(mesh, x0, bad)
+    with pytest.raises(TypeError, match="thickness must be a number"):
+        selfcd.proximity_contacts(mesh, x0, "0.1")
+    with pytest.raises(ValueError):
+        selfcd.proximity_contacts(mesh, x0[:5], 0.1)
+    with pytest.raises(TypeError, match="selfcd.Mesh"):
+        selfcd.proximity_contacts(x0, x0, 0.1)
+    with pytest.raises(ValueError, match="max_contacts must be >= 0"):
+        selfcd.proximity_contacts(mesh, x0, 0.1, max_contacts=-1)
+    # A thickness larger than the mesh: every pair is near; the limit stops it clearly.
+    with pytest.raises(ValueError, match="contacts"):
+        selfcd.proximity_contacts(mesh, x0, 10.0, max_contacts=100)

@@ -165,10 +165,8 @@ class Detector:
         if not isinstance(method, str):
             raise TypeError(f"method must be a string, got {type(method).__name__}")
         self.mesh = mesh
-        if max_contacts is not None and _arrays.integer(max_contacts, "max_contacts") < 0:
-            raise ValueError(f"max_contacts must be >= 0, got {max_contacts}")
         self._inner = _core.Detector(mesh._inner, method, _arrays.number(thickness, "thickness"),
-                                     method_options or None, max_contacts)
+                                     method_options or None, _arrays.limit(max_contacts, "max_contacts"))
 
     @property
     def method(self) -> str:
@@ -415,9 +413,11 @@ def proximity_contacts(mesh: Mesh, positions: npt.ArrayLike, thickness: float,
         (rows of `mesh.edges`), "edge_edge_vertices" (m, 4), "edge_edge_distance"
         (m,) and "edge_edge_params" (m, 2); sorted by element ids.
     """
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
     return _core.proximity_contacts(
         mesh._inner, _arrays.points(positions, "positions", mesh.n_vertices),
-        _arrays.number(thickness, "thickness"), max_contacts)
+        _arrays.number(thickness, "thickness"), _arrays.limit(max_contacts, "max_contacts"))
 
 
 def compare_methods(

@@ -101,6 +101,16 @@ def integer(value: object, name: str) -> int:
     return int(value)
 
 
+def limit(value: object, name: str) -> int | None:
+    """None, or a count limit (an integer >= 0): TypeError or ValueError otherwise."""
+    if value is None:
+        return None
+    n = integer(value, name)
+    if n < 0:
+        raise ValueError(f"{name} must be >= 0, got {n}")
+    return n
+
+
 def flag(value: object, name: str) -> bool:
     """A bool (Python or numpy); TypeError otherwise, so that "no" is not read as True."""
     if not isinstance(value, (bool, np.bool_)):

@@ -10,15 +10,19 @@
 //! d = 0.6 median edges, a continuous step of a 0.5-edge wave of wavelength
 //! 16 edges, per-frame motion 0.05 edges).
 //!
-//! Rows: proximity fresh (refit + boxes-only traversal), coherent first call
+//! Rows: proximity fresh (refit + boxes-only traversal), one-shot
+//! (`proximity_contacts`, its hierarchy built top-down), coherent first call
 //! (candidate build) and coherent on a frame moved by the per-frame motion;
-//! continuous fresh and coherent on the wave step and on a step that does not
-//! move. Each coherent row says whether it reused the candidate set.
+//! continuous fresh (kept hierarchy), one-shot (`continuous_impacts`) and
+//! coherent on the wave step and on a step that does not move. Each
+//! coherent row says whether it reused the candidate set.
 use selfcd::bvh::traverse::{self_traverse, TraverseOptions};
 use selfcd::bvh::{build::build, Bvh};
 use selfcd::detect::coherent::SelfQueries;
+use selfcd::detect::continuous::continuous_impacts;
 use selfcd::detect::hierarchy::BvhDetector;
 use selfcd::detect::narrow::{collect_proximity, Proximity, DEFAULT_MAX_CONTACTS};
+use selfcd::detect::proximity_contacts;
 use selfcd::{DVec3, FrameStats, Mesh, Method};
 use std::time::Instant;
 
@@ -101,6 +105,14 @@ fn main() {
     let mut bvh = build(&mesh);
     let (ms, n) = best(reps, || fresh_proximity(&mut bvh, &mesh, &x, d));
     println!("proximity fresh                 {ms:9.3} ms  {n} pairs");
+    let (ms, (n, c)) = best(reps, || {
+        let (p, c) = proximity_contacts(&mesh, &x, d, DEFAULT_MAX_CONTACTS).unwrap();
+        (p.vertex_triangle.len() + p.edge_edge.len(), c)
+    });
+    println!(
+        "proximity one-shot              {ms:9.3} ms  {n} pairs ({} node pairs, {} triangle pairs)",
+        c.node_pairs, c.primitive_tests
+    );
     let coherent = || SelfQueries::new(mesh.clone(), skin_edges * e).unwrap();
     let count = |c: &selfcd::detect::ProximityContacts| c.vertex_triangle.len() + c.edge_edge.len();
     let (ms, (n, s)) = best(reps, || {
@@ -132,6 +144,14 @@ fn main() {
             i.vertex_triangle.len() + i.edge_edge.len()
         });
         println!("continuous fresh, {name:9}      {ms:9.3} ms  {n} pairs");
+        let (ms, (n, c)) = best(reps, || {
+            let (i, c) = continuous_impacts(&mesh, &x, x1, 0.0).unwrap();
+            (i.vertex_triangle.len() + i.edge_edge.len(), c)
+        });
+        println!(
+            "continuous one-shot, {name:9}   {ms:9.3} ms  {n} pairs ({} certificates tried, {} failed, {} node pairs, {} triangle pairs)",
+            c.contour_tests, c.contour_fails, c.node_pairs, c.primitive_tests
+        );
         let (ms, (n, s)) = best(reps, || {
             let mut s = FrameStats::default();
             let i = q.continuous(&x, x1, 0.0, &mut s).unwrap();
