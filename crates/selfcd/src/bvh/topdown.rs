@@ -1,6 +1,11 @@
 //! A hierarchy built top-down, lazily, for one query: the one-shot
-//! [`self_intersections`](crate::detect::self_intersections) and
-//! [`first_intersection`](crate::detect::first::first_intersection).
+//! [`self_intersections`](crate::detect::self_intersections),
+//! [`first_intersection`](crate::detect::first::first_intersection),
+//! [`proximity_contacts`](crate::detect::proximity_contacts) (boxes within
+//! the thickness, no certificate) and
+//! [`continuous_impacts`](crate::detect::continuous::continuous_impacts)
+//! (swept boxes; at thickness 0 the certificate holds over the whole step:
+//! [`Shape::Swept`]).
 //!
 //! The bottom-up hierarchy ([`super::build`]) fits every node's box, cone and
 //! patch up front, which a simulation pays once and amortises over frames. A

@@ -53,8 +53,8 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
-    collect_proximity, distance_below, for_each_owned_near, for_each_owned_pair, sorted_by_key,
-    ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
+    collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key, ElementPair,
+    Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
@@ -359,7 +359,7 @@ impl LeafVisitor for Gather<'_> {
         }
         let before = out.len();
         for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
-            out.extend(distance_below(kind, &c, self.hulls.gap).map(|d| (d, p)))
+            out.extend(self.hulls.closest_within(kind, &c).map(|(d, _)| (d, p)))
         });
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);
@@ -552,7 +552,7 @@ impl SelfQueries {
         let gather = Gather {
             mesh,
             x,
-            hulls: HullCull::at_magnitude(gap, magnitude),
+            hulls: HullCull::at_magnitude(gap, magnitude, x),
             max: self.max_contacts,
             found: AtomicUsize::new(0),
         };

@@ -7,7 +7,7 @@
 
 use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{closest_within, StencilKind};
+use crate::geom::ccd::StencilKind;
 use crate::geom::distance::HullCull;
 use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
 use crate::geom::Aabb;
@@ -237,7 +237,7 @@ impl<'a> Proximity<'a> {
     /// vertex, then the triangle's) when closer than the thickness.
     #[inline]
     fn near_vt(&self, vertex: u32, triangle: u32, c: &[DVec3; 4]) -> Option<Near> {
-        let within = closest_within(StencilKind::VertexTriangle, c, self.thickness);
+        let within = self.hulls.closest_within(StencilKind::VertexTriangle, c);
         within.map(|(distance, bary)| {
             Near::Vt(VertexTriangle {
                 vertex,
@@ -252,7 +252,7 @@ impl<'a> Proximity<'a> {
     /// smaller vertex first) when closer than the thickness.
     #[inline]
     fn near_ee(&self, e0: u32, e1: u32, c: &[DVec3; 4]) -> Option<Near> {
-        let within = closest_within(StencilKind::EdgeEdge, c, self.thickness);
+        let within = self.hulls.closest_within(StencilKind::EdgeEdge, c);
         within.map(|(distance, [s, t, _])| {
             Near::Ee(EdgeEdge {
                 edges: [e0, e1],
@@ -461,14 +461,8 @@ impl ElementPair {
         if hulls.apart(first, second) {
             return None;
         }
-        distance_below(kind, &corners, hulls.gap)
+        hulls.closest_within(kind, &corners).map(|(d, _)| d)
     }
-}
-
-/// The distance of a stencil with corners `c` when it is below `gap`.
-#[inline]
-pub fn distance_below(kind: StencilKind, c: &[DVec3; 4], gap: f64) -> Option<f64> {
-    closest_within(kind, c, gap).map(|(d, _)| d)
 }
 
 /// Sorts raw proximity contacts (each element pair is reported once, by its

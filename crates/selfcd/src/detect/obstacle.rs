@@ -146,7 +146,7 @@ pub fn proximity(m: Meshes, x: &[DVec3], pairs: &[CrossPair], d: f64) -> Vec<Nea
         .filter_map(|&pair| {
             let (kind, ids) = m.stencil(pair);
             let c = ids.map(|i| x[i as usize]);
-            closest_within(kind, &c, d).map(|(distance, params)| Near {
+            closest_within(kind, &c, d, true).map(|(distance, params)| Near {
                 pair,
                 distance,
                 params,

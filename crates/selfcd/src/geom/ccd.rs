@@ -15,6 +15,7 @@
 use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use super::predicates::{exponent, mul_pow2};
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Which element pair the four vertices of a stencil form (the one kind tag of
 /// proximity contacts, continuous queries and the response, after
@@ -182,19 +183,32 @@ pub fn time_of_impact(
     Some(t)
 }
 
-/// Moves `points` and `thickness` by one power of two `2^k` when the largest
-/// of their magnitudes lies outside [2^-200, 2^200], so that it lands in
-/// [1, 2): the distances of this module and [`super::distance`] multiply up
-/// to four coordinates, which over- or underflow beyond about 2^+-250 (at
-/// 2^300 a folding sheet lost every impact and every proximity contact).
-/// Scaling by a power of two is exact (down to 2^-1022 under the largest
-/// magnitude), so every answer is the unit-scale stencil's, at any scale.
-/// Returns the scaled thickness and `k` (0 when nothing moved).
+/// Stencils whose largest coordinate magnitude lies in [2^-200, 2^201) (or
+/// is 0) have their distances formed as they are: a fourth power of such
+/// coordinates, or of their differences (at least 2^-253 when not zero), is
+/// far inside the normal range of doubles.
+const SAFE_EXPONENT: i32 = 200;
+
+/// Is `m`, a stencil's largest coordinate magnitude, one [`rescale`] moves?
+#[inline]
+fn out_of_range(m: f64) -> bool {
+    m != 0.0 && m.is_finite() && exponent(m).abs() > SAFE_EXPONENT
+}
+
+/// Moves `points` and `thickness` by the power of two `2^k` that puts the
+/// points' largest coordinate magnitude in [1, 2) when it lies outside
+/// [2^-200, 2^201): the distances of this module and [`super::distance`]
+/// multiply up to four coordinates, which over- or underflow beyond about
+/// 2^+-250 (at 2^300 a folding sheet lost every impact and every proximity
+/// contact). Scaling by a power of two is exact (down to 2^-1022 under the
+/// largest magnitude), so every answer is the unit-scale stencil's, at any
+/// scale. Returns the scaled thickness (infinite when it dwarfs the
+/// stencil, which is then within it) and `k` (0 when nothing moved).
 pub(crate) fn rescale(points: &mut [DVec3], thickness: f64) -> (f64, i32) {
     let m = points
         .iter()
-        .fold(thickness, |m, p| m.max(p.abs().max_element()));
-    if m == 0.0 || !m.is_finite() || exponent(m).abs() <= 200 {
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    if !out_of_range(m) {
         return (thickness, 0);
     }
     let k = -exponent(m);
@@ -202,17 +216,36 @@ pub(crate) fn rescale(points: &mut [DVec3], thickness: f64) -> (f64, i32) {
     (mul_pow2(thickness, k), k)
 }
 
+/// False when no stencil of `points` needs [`rescale`] (every point's
+/// largest coordinate magnitude is 0 or in range), so that a query over
+/// them may skip it: the answers are the same to the bit. In parallel when
+/// there are many.
+pub fn needs_rescale(points: &[DVec3]) -> bool {
+    let out = |p: &DVec3| out_of_range(p.abs().max_element());
+    if points.len() >= 1 << 14 {
+        points.par_iter().any(out)
+    } else {
+        points.iter().any(out)
+    }
+}
+
 /// The distance of a stencil with corners `c` and its closest points
 /// (barycentric weights on the triangle, or the two edges' parameters and a
-/// 0) when it is strictly below `thickness`, at any scale ([`rescale`]).
+/// 0) when it is strictly below `thickness`, at any scale ([`rescale`],
+/// skipped when `rescaled` is false: see [`needs_rescale`]).
 #[inline]
 pub fn closest_within(
     kind: StencilKind,
     c: &[DVec3; 4],
     thickness: f64,
+    rescaled: bool,
 ) -> Option<(f64, [f64; 3])> {
     let mut c = *c;
-    let (thickness, k) = rescale(&mut c, thickness);
+    let (thickness, k) = if rescaled {
+        rescale(&mut c, thickness)
+    } else {
+        (thickness, 0)
+    };
     let (d2, params) = match kind {
         StencilKind::VertexTriangle => point_triangle_distance2(c[0], c[1], c[2], c[3]),
         StencilKind::EdgeEdge => {
@@ -220,7 +253,8 @@ pub fn closest_within(
             (d2, [s, t, 0.0])
         }
     };
-    (d2 < thickness * thickness).then(|| (mul_pow2(d2.sqrt(), -k), params))
+    let d = d2.sqrt();
+    (d < thickness).then(|| (mul_pow2(d, -k), params))
 }
 
 /// [`rescale`] of a moving stencil (both ends) and its thickness.
@@ -238,6 +272,37 @@ mod tests {
 
     fn v(x: f64, y: f64, z: f64) -> DVec3 {
         DVec3::new(x, y, z)
+    }
+
+    /// A vertex 0.25 above a unit triangle, at scales 2^k: the same contact,
+    /// its distance scaled exactly, whatever the thickness's own scale (a
+    /// thickness that dwarfs the stencil holds it; one it dwarfs does not).
+    #[test]
+    fn distances_are_the_unit_stencils_at_every_scale() {
+        let unit = [
+            v(0.2, 0.3, 0.25),
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, 0.0),
+            v(0.0, 1.0, 0.0),
+        ];
+        let kinds = [StencilKind::VertexTriangle, StencilKind::EdgeEdge];
+        for k in [-1000, -600, -300, -201, 0, 201, 300, 600, 1000] {
+            let s = 2f64.powi(k);
+            let c = unit.map(|p| p * s);
+            for kind in kinds {
+                let want = closest_within(kind, &unit, 0.5, false).unwrap();
+                let got = closest_within(kind, &c, 0.5 * s, true);
+                assert_eq!(got, Some((want.0 * s, want.1)), "{kind:?} at 2^{k}");
+                assert_eq!(
+                    closest_within(kind, &c, 0.1 * s, true),
+                    None,
+                    "{kind:?} at 2^{k}"
+                );
+                assert!(closest_within(kind, &c, f64::MAX, true).is_some());
+                assert_eq!(closest_within(kind, &c, s * 1e-300, true), None);
+            }
+            assert_eq!(needs_rescale(&c), k.abs() > 200, "2^{k}");
+        }
     }
 
     #[test]

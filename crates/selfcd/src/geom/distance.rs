@@ -2,10 +2,14 @@
 //!
 //! Plain f64 (these feed the simulator's proximity response, where a tolerance
 //! `d` is already in play); after Ericson, Real-Time Collision Detection, 5.1.
-//! Not scale-free, unlike the intersection test ([`super::tri_tri`]): squared
-//! lengths are formed directly, so they overflow for coordinates beyond about
-//! 1e154 and lose all precision below about 1e-154.
+//! Not scale-free by themselves, unlike the intersection test
+//! ([`super::tri_tri`]): products of up to four coordinates are formed
+//! directly, so they overflow beyond about 2^250 and lose all precision below
+//! about 2^-250. The queries call them through [`super::ccd::closest_within`]
+//! and [`super::ccd::time_of_impact`], which move a stencil out of that
+//! range by a power of two first.
 
+use super::ccd::StencilKind;
 use super::Aabb;
 use glam::DVec3;
 
@@ -41,21 +45,33 @@ pub struct HullCull {
     pub gap: f64,
     /// `gap` plus the slack.
     reach: f64,
+    /// Whether the stencils of these positions must be rescaled before their
+    /// distances are formed ([`super::ccd::needs_rescale`]).
+    pub rescale: bool,
 }
 
 impl HullCull {
     /// The cull for pairs of points among `positions` closer than `gap`.
     pub fn new(gap: f64, positions: &[DVec3]) -> HullCull {
-        HullCull::at_magnitude(gap, super::magnitude(positions))
+        HullCull::at_magnitude(gap, super::magnitude(positions), positions)
     }
 
-    /// [`new`](Self::new) for positions whose largest coordinate magnitude
+    /// [`new`](Self::new) for `positions` whose largest coordinate magnitude
     /// ([`super::magnitude`]) is already known.
-    pub fn at_magnitude(gap: f64, magnitude: f64) -> HullCull {
+    pub fn at_magnitude(gap: f64, magnitude: f64, positions: &[DVec3]) -> HullCull {
         HullCull {
             gap,
             reach: gap + APART_SLACK * magnitude,
+            rescale: super::ccd::needs_rescale(positions),
         }
+    }
+
+    /// The distance of a stencil with corners `c` (of the positions the cull
+    /// was made for) and its closest points when it is below the gap
+    /// ([`super::ccd::closest_within`]).
+    #[inline]
+    pub fn closest_within(&self, kind: StencilKind, c: &[DVec3; 4]) -> Option<(f64, [f64; 3])> {
+        super::ccd::closest_within(kind, c, self.gap, self.rescale)
     }
 
     /// True when the convex hulls of `a` and `b` (points of the positions the
