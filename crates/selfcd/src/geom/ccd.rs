@@ -75,22 +75,24 @@ fn speed_bound(pair: StencilKind, p: &[DVec3; 4]) -> f64 {
     l2.sqrt()
 }
 
-/// True when the two sides' swept hulls stay farther apart than `thickness` plus the
-/// resolution the iteration below reports at (`RESOLUTION` of the initial gap,
-/// which is at most the swept box's diagonal): then the iteration would return
-/// `None` too, and this cull answers the same in a few comparisons.
-fn swept_apart(pair: StencilKind, x0: &[DVec3; 4], x1: &[DVec3; 4], thickness: f64) -> bool {
-    let split = match pair {
-        StencilKind::VertexTriangle => 1,
-        StencilKind::EdgeEdge => 2,
-    };
+/// The boxes of a moving stencil's two sides over the motion (its first
+/// element: vertices `..split`; its second: the rest), as (min, max) pairs.
+fn swept_sides(pair: StencilKind, x0: &[DVec3; 4], x1: &[DVec3; 4]) -> [(DVec3, DVec3); 2] {
     let bounds = |r: std::ops::Range<usize>| {
         r.fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), i| (lo.min(x0[i]).min(x1[i]), hi.max(x0[i]).max(x1[i])),
         )
     };
-    let ((la, ha), (lb, hb)) = (bounds(0..split), bounds(split..4));
+    [bounds(0..pair.split()), bounds(pair.split()..4)]
+}
+
+/// True when the two sides' swept hulls (boxes `sides`) stay farther apart
+/// than `thickness` plus the resolution the iteration below reports at
+/// (`RESOLUTION` of the initial gap, which is at most the swept box's
+/// diagonal): then the iteration would return `None` too, and this cull
+/// answers the same in a few comparisons.
+fn swept_apart([(la, ha), (lb, hb)]: [(DVec3, DVec3); 2], thickness: f64) -> bool {
     let diag = (ha.max(hb) - la.min(lb)).length();
     hulls_apart(&[la, ha], &[lb, hb], thickness + 2.0 * RESOLUTION * diag)
 }
@@ -138,8 +140,8 @@ pub fn time_of_impact(
     x1: [DVec3; 4],
     thickness: f64,
 ) -> Option<f64> {
-    let (x0, x1, thickness) = normalized(x0, x1, thickness);
-    if swept_apart(pair, &x0, &x1, thickness) || (thickness == 0.0 && never_coplanar(&x0, &x1)) {
+    let (x0, x1, thickness, sides) = normalized(pair, x0, x1, thickness);
+    if swept_apart(sides, thickness) || (thickness == 0.0 && never_coplanar(&x0, &x1)) {
         return None;
     }
     let p: [DVec3; 4] = std::array::from_fn(|i| x1[i] - x0[i]);
@@ -231,8 +233,10 @@ pub fn needs_rescale(points: &[DVec3]) -> bool {
 
 /// The distance of a stencil with corners `c` and its closest points
 /// (barycentric weights on the triangle, or the two edges' parameters and a
-/// 0) when it is strictly below `thickness`, at any scale ([`rescale`],
-/// skipped when `rescaled` is false: see [`needs_rescale`]).
+/// 0) when it is strictly below `thickness`, at any scale: `rescaled` asks
+/// for [`rescale`] and a thickness compared in any range; without it the
+/// caller has checked that neither is needed (see [`needs_rescale`] and
+/// [`super::distance::HullCull`]), and the answer is the same to the bit.
 #[inline]
 pub fn closest_within(
     kind: StencilKind,
@@ -240,29 +244,75 @@ pub fn closest_within(
     thickness: f64,
     rescaled: bool,
 ) -> Option<(f64, [f64; 3])> {
+    if rescaled {
+        return closest_within_rescaled(kind, c, thickness);
+    }
+    let (d2, params) = distance2_and_params(kind, c);
+    (d2 < thickness * thickness).then(|| (d2.sqrt(), params))
+}
+
+/// [`closest_within`] of a stencil moved by [`rescale`]; the thickness
+/// compared by its square where that is a normal double, else as it is (a
+/// thickness far from the stencil's scale squares to 0 or overflows).
+#[cold]
+#[inline(never)]
+fn closest_within_rescaled(
+    kind: StencilKind,
+    c: &[DVec3; 4],
+    thickness: f64,
+) -> Option<(f64, [f64; 3])> {
     let mut c = *c;
-    let (thickness, k) = if rescaled {
-        rescale(&mut c, thickness)
+    let (thickness, k) = rescale(&mut c, thickness);
+    let (d2, params) = distance2_and_params(kind, &c);
+    let t2 = thickness * thickness;
+    let within = if t2.is_normal() {
+        d2 < t2
     } else {
-        (thickness, 0)
+        d2.sqrt() < thickness
     };
-    let (d2, params) = match kind {
+    within.then(|| (mul_pow2(d2.sqrt(), -k), params))
+}
+
+/// The squared distance of a stencil and its closest points (as in
+/// [`closest_within`]), as computed at its coordinates.
+#[inline]
+fn distance2_and_params(kind: StencilKind, c: &[DVec3; 4]) -> (f64, [f64; 3]) {
+    match kind {
         StencilKind::VertexTriangle => point_triangle_distance2(c[0], c[1], c[2], c[3]),
         StencilKind::EdgeEdge => {
             let (d2, s, t) = segment_segment_distance2(c[0], c[1], c[2], c[3]);
             (d2, [s, t, 0.0])
         }
-    };
-    let d = d2.sqrt();
-    (d < thickness).then(|| (mul_pow2(d, -k), params))
+    }
 }
 
-/// [`rescale`] of a moving stencil (both ends) and its thickness.
-fn normalized(x0: [DVec3; 4], x1: [DVec3; 4], thickness: f64) -> ([DVec3; 4], [DVec3; 4], f64) {
-    let mut all = [x0[0], x0[1], x0[2], x0[3], x1[0], x1[1], x1[2], x1[3]];
-    let (thickness, _) = rescale(&mut all, thickness);
-    let [a, b, c, d, e, f, g, h] = all;
-    ([a, b, c, d], [e, f, g, h], thickness)
+/// [`rescale`] of a moving stencil (both ends) and its thickness, with its
+/// sides' swept boxes ([`swept_sides`]), which give the largest coordinate
+/// magnitude in a few operations.
+#[allow(clippy::type_complexity)]
+fn normalized(
+    pair: StencilKind,
+    mut x0: [DVec3; 4],
+    mut x1: [DVec3; 4],
+    thickness: f64,
+) -> ([DVec3; 4], [DVec3; 4], f64, [(DVec3, DVec3); 2]) {
+    let sides = swept_sides(pair, &x0, &x1);
+    let [(la, ha), (lb, hb)] = sides;
+    let m = la
+        .abs()
+        .max(ha.abs())
+        .max(lb.abs())
+        .max(hb.abs())
+        .max_element();
+    if !out_of_range(m) {
+        return (x0, x1, thickness, sides);
+    }
+    let k = -exponent(m);
+    for p in x0.iter_mut().chain(x1.iter_mut()) {
+        *p = mul_pow2(*p, k);
+    }
+    let sides = swept_sides(pair, &x0, &x1);
+    (x0, x1, mul_pow2(thickness, k), sides)
 }
 
 #[cfg(test)]

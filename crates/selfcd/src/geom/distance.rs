@@ -46,7 +46,8 @@ pub struct HullCull {
     /// `gap` plus the slack.
     reach: f64,
     /// Whether the stencils of these positions must be rescaled before their
-    /// distances are formed ([`super::ccd::needs_rescale`]).
+    /// distances are formed ([`super::ccd::needs_rescale`]), or the gap's
+    /// square is not a normal double.
     pub rescale: bool,
 }
 
@@ -62,7 +63,7 @@ impl HullCull {
         HullCull {
             gap,
             reach: gap + APART_SLACK * magnitude,
-            rescale: super::ccd::needs_rescale(positions),
+            rescale: !(gap * gap).is_normal() || super::ccd::needs_rescale(positions),
         }
     }
 
