@@ -159,7 +159,8 @@ pub fn query<V: LeafVisitor>(
     visitor: &V,
 ) -> (Vec<V::Item>, Counters) {
     let found = run(mesh, shape, gap, visitor, false);
-    (found.items, found.counters)
+    let counters = found.counters;
+    (found.into_items(), counters)
 }
 
 /// The query from the root, all pairs or (`first`) until one is found.
@@ -193,7 +194,8 @@ struct Query<'a, V> {
     /// Stop at the first pair found, testing in one order (no parallel tasks).
     first: bool,
     /// Each triangle's box, fitted when the root is first split (a root
-    /// that holds its certificate needs none).
+    /// that holds its certificate needs none), or with the root's fit where
+    /// nothing is certified.
     boxes: OnceLock<Vec<Aabb>>,
     /// The unit normals of each triangle (`k` =
     /// [`Shape::normals_per_triangle`] of them, at `k t..k t + k`), each with
@@ -286,9 +288,12 @@ impl Fit {
     }
 }
 
-/// A task's findings.
+/// A task's findings: what it found itself, and the finished lists of the
+/// tasks it joined (kept apart, so that no item is copied once per level
+/// of joins; a proximity query may find millions).
 struct Found<T> {
     items: Vec<T>,
+    joined: Vec<Vec<T>>,
     counters: Counters,
     scratch: Scratch,
 }
@@ -297,6 +302,7 @@ impl<T> Default for Found<T> {
     fn default() -> Self {
         Found {
             items: Vec::new(),
+            joined: Vec::new(),
             counters: Counters::default(),
             scratch: Scratch::default(),
         }
@@ -304,9 +310,26 @@ impl<T> Default for Found<T> {
 }
 
 impl<T> Found<T> {
-    fn absorb(&mut self, mut o: Found<T>) {
-        self.items.append(&mut o.items);
+    /// Takes in a joined task's findings.
+    fn absorb(&mut self, o: Found<T>) {
+        self.joined.push(o.items);
+        self.joined.extend(o.joined);
         self.counters.add(&o.counters);
+    }
+
+    /// Every item found, in one list (in an order fixed by the joins, not
+    /// by the threads).
+    fn into_items(mut self) -> Vec<T> {
+        if self.joined.is_empty() {
+            return self.items;
+        }
+        let total = self.items.len() + self.joined.iter().map(Vec::len).sum::<usize>();
+        let mut all = Vec::with_capacity(total);
+        all.append(&mut self.items);
+        for mut part in self.joined {
+            all.append(&mut part);
+        }
+        all
     }
 }
 
@@ -344,14 +367,13 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             let mut fit = Fit::EMPTY;
             for (i, t) in (start..(start + CHUNK).min(n)).enumerate() {
                 let units = &mut normals[k * i..k * i + k];
-                if k > 0 {
-                    shape.unit_normals(mesh, t, units);
-                    (across[i], flags[i]) = neighbours(mesh, t as u32);
-                }
+                shape.unit_normals(mesh, t, units);
+                (across[i], flags[i]) = neighbours(mesh, t as u32);
                 fit = fit.add(&shape.bbox(mesh, t), units);
             }
             fit
         };
+        let boxes = OnceLock::new();
         let fits: Vec<Fit> = if k > 0 {
             (
                 normals.par_chunks_mut(k * CHUNK),
@@ -363,10 +385,23 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 .map(|(c, (normals, across, flags))| fit_piece(c * CHUNK, normals, across, flags))
                 .collect()
         } else {
-            (0..n.div_ceil(CHUNK))
-                .into_par_iter()
-                .map(|c| fit_piece(c * CHUNK, &mut [], &mut [], &mut []))
-                .collect()
+            // Nothing is certified, so the root splits: its triangles' boxes
+            // are kept from this pass instead of fitted again.
+            let mut all = vec![Aabb::EMPTY; n];
+            let fits = all
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(c, chunk)| {
+                    let mut fit = Fit::EMPTY;
+                    for (b, t) in chunk.iter_mut().zip(c * CHUNK..) {
+                        *b = shape.bbox(mesh, t);
+                        fit = fit.add(b, &[]);
+                    }
+                    fit
+                })
+                .collect();
+            let _ = boxes.set(all);
+            fits
         };
         let ids = || (0..n as u32).map(AtomicU32::new).collect();
         let q = Query {
@@ -375,7 +410,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             gap,
             visitor,
             first,
-            boxes: OnceLock::new(),
+            boxes,
             normals,
             across,
             edge_flags,
