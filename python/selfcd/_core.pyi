@@ -85,10 +85,6 @@ class SelfQueries:
         """Vertex-triangle and edge-edge pairs closer than `thickness`."""
     def continuous(self, x0: np.ndarray, x1: np.ndarray, thickness: float) -> dict[str, np.ndarray]:
         """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
-
-def proximity_contacts(mesh: Mesh, positions: np.ndarray, thickness: float,
-                       max_contacts: int | None = None) -> dict[str, np.ndarray]:
-    """Vertex-triangle and edge-edge pairs closer than `thickness` at `positions` (one-shot)."""
     @property
     def skin(self) -> float:
         """The candidate sets' reach beyond the asked distance."""
@@ -108,6 +104,10 @@ def first_intersection(mesh: Mesh, positions: np.ndarray | None = None) -> tuple
 
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, thickness: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
+
+def proximity_contacts(mesh: Mesh, positions: np.ndarray, thickness: float,
+                       max_contacts: int | None = None) -> dict[str, np.ndarray]:
+    """Vertex-triangle and edge-edge pairs closer than `thickness` at `positions` (one-shot)."""
 
 def compare_methods(mesh: Mesh, frames: np.ndarray, methods: list[str] | None = None, thickness: float = 0.0,
                     progress: Callable[[int], object] | None = None) -> list[dict[str, Any]]:
