@@ -116,3 +116,20 @@ def test_kept_detectors_give_the_fresh_pairs_on_a_sequence(name, meshes):
         front_jobs += det.last_stats["front_jobs"]
     assert reused > 1000, reused
     assert front_jobs > 1000, front_jobs
+
+
+@pytest.mark.parametrize("name", ["skirt_32k", "body"])
+def test_one_shot_proximity_is_the_detectors_on_real_meshes(name, meshes):
+    """`proximity_contacts` (top-down, built for the call) against a kept
+    Detector's proximity (bottom-up, checked against brute force elsewhere):
+    the same contacts, array for array, at d = 0.6 median edges."""
+    v, f = meshes[name]
+    mesh = selfcd.Mesh(v, f)
+    d = 0.6 * float(np.median(np.linalg.norm(v[f[:, 0]] - v[f[:, 1]], axis=1)))
+    det = selfcd.Detector(mesh, thickness=d)
+    det.detect(v)
+    want = det.last_proximity
+    got = selfcd.proximity_contacts(mesh, v, d)
+    assert len(got["vertex_triangle"]) > 1000 and len(got["edge_edge"]) > 1000
+    for key in want:
+        assert np.array_equal(got[key], want[key]), key
