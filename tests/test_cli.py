@@ -83,6 +83,27 @@ def test_detect_json_matches_the_api(obj_files) -> None:
         assert rec["stats"]["contacts"] == len(obj_files["expected"])
 
 
+def test_detect_one_mesh_runs_the_one_shot_query(obj_files) -> None:
+    """One file with the default method runs the one-shot query: the same pairs
+    as a detector, and stats with a detector's keys (its own counters)."""
+    from selfcd.check import check_frames
+    from selfcd.io import load_mesh
+
+    out = run("detect", "--json", str(obj_files["through"]))
+    assert out.returncode == 1
+    (rec,) = json.loads(out.stdout)["files"]
+    assert rec["pairs"] == obj_files["expected"].tolist()
+    v, f = load_mesh(obj_files["through"])
+    det = selfcd.Detector(selfcd.Mesh(v, f))
+    assert np.array_equal(det.detect(v), obj_files["expected"])
+    assert set(rec["stats"]) == set(det.last_stats)
+    assert rec["stats"]["contacts"] == len(obj_files["expected"]) and rec["stats"]["refit_time"] == 0.0
+    one = check_frames(v[None], f, ["through"])
+    many = check_frames(np.stack([v, v]), f, ["a", "b"])
+    assert np.array_equal(one.pairs[0], many.pairs[0]) and np.array_equal(many.pairs[1], one.pairs[0])
+    assert one.stats[0]["refit_time"] == 0.0 and set(one.stats[0]) == set(many.stats[0])
+
+
 def test_detect_bad_inputs_exit_2(obj_files, tmp_path: Path) -> None:
     out = run("detect", str(tmp_path / "missing.obj"))
     assert out.returncode == 2 and "no such file" in out.stderr

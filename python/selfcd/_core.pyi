@@ -102,6 +102,9 @@ def first_intersection(mesh: Mesh, positions: np.ndarray | None = None) -> tuple
     """Some intersecting non-adjacent face pair (i, j), i < j, or None (at `positions`, default the rest
     shape); stops at the first found."""
 
+def one_shot_detection(mesh: Mesh, positions: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    """`self_intersections` with a Detector's stats dict (traverse_time: the whole query)."""
+
 def continuous_impacts(mesh: Mesh, x0: np.ndarray, x1: np.ndarray, thickness: float = 0.0) -> dict[str, np.ndarray]:
     """Element pairs coming within `thickness` during the linear step x0 -> x1, with times of impact."""
 

@@ -1,7 +1,10 @@
 """Checking a loaded mesh or animation: the intersecting pairs of every frame.
 
 One detector (one hierarchy, refitted per frame) runs over the frames in order,
-as `selfcd detect` and `selfcd batch` do; the first frame is the rest shape.
+as `selfcd detect` and `selfcd batch` do; the first frame is the rest shape. A
+single mesh checked with the default method runs the one-shot query instead
+(`selfcd.self_intersections`: the same pairs, its hierarchy built only where
+needed), and its stats are that query's.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _api
+from . import _api, _core
 
 
 @dataclass
@@ -55,8 +58,16 @@ def check_frames(frames: np.ndarray, faces: np.ndarray, labels: list[str], metho
         ValueError, TypeError: an invalid mesh, or a frame with bad positions
             (the message names the frame's label).
     """
-    det = _api.Detector(_api.Mesh(frames[0], faces, weld=weld), method)
+    mesh = _api.Mesh(frames[0], faces, weld=weld)
     run = DetectRun([], frames, faces, [], [], method)
+    if len(frames) == 1 and method == _api.DEFAULT_METHOD:
+        for label in wrap(labels[:1]):
+            pairs, stats = _core.one_shot_detection(mesh._inner)
+            run.labels.append(label)
+            run.pairs.append(pairs)
+            run.stats.append(stats)
+        return run
+    det = _api.Detector(mesh, method)
     for label, positions in zip(wrap(labels), frames):
         try:
             pairs = det.detect(positions)

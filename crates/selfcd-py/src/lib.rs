@@ -66,6 +66,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh::self_intersections, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::position_groups, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::first_intersection, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::one_shot_detection, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::continuous_impacts, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::proximity_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_methods, m)?)?;

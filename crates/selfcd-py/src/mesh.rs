@@ -3,6 +3,7 @@
 use crate::contacts::{impacts_dict, proximity_dict};
 use crate::convert::{pairs_array, points, points_array, rows_array, triangles, triples};
 use crate::errors::guard;
+use crate::stats::stats_dict;
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -139,6 +140,27 @@ pub fn self_intersections<'py>(
         guard("self_intersections", || selfcd::self_intersections(&m, at))
     })?;
     pairs_array(py, &pairs)
+}
+
+/// The one-shot query of [`self_intersections`] with what it did: the pairs
+/// and a stats dict with a `Detector`'s `last_stats` keys (`traverse_time`
+/// the whole query, hierarchy included). `positions` as there.
+#[pyfunction]
+#[pyo3(signature = (mesh, positions=None))]
+pub fn one_shot_detection<'py>(
+    py: Python<'py>,
+    mesh: &PyMesh,
+    positions: Option<PyReadonlyArray2<'_, f64>>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+    let p = positions_or_rest(positions)?;
+    let m = mesh.inner.clone();
+    let det = py.detach(|| {
+        let at = p.as_deref().unwrap_or(m.rest());
+        guard("one_shot_detection", || {
+            selfcd::detect::one_shot_detection(&m, at)
+        })
+    })?;
+    Ok((pairs_array(py, &det.pairs)?, stats_dict(py, &det.stats)?))
 }
 
 /// Early-exit query: some intersecting non-adjacent face pair `(i, j)`, i < j,

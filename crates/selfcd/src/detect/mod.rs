@@ -188,6 +188,23 @@ pub fn self_intersections(mesh: &Arc<Mesh>, positions: &[DVec3]) -> Result<Vec<[
     Ok(crate::bvh::topdown::self_intersections(mesh, positions).0)
 }
 
+/// [`self_intersections`] as a [`Detection`], for callers that report what
+/// a detector reports: its pairs, its counters, and the whole query's time
+/// (hierarchy included) as `traverse_time`.
+pub fn one_shot_detection(mesh: &Mesh, positions: &[DVec3]) -> Result<Detection> {
+    mesh.check_positions(positions)?;
+    let t0 = std::time::Instant::now();
+    let (pairs, counters) = crate::bvh::topdown::self_intersections(mesh, positions);
+    let mut det = Detection {
+        pairs,
+        ..Default::default()
+    };
+    counters.write_to(&mut det.stats);
+    det.stats.traverse_time = t0.elapsed().as_secs_f64();
+    det.count_contacts();
+    Ok(det)
+}
+
 /// One-shot proximity query: every vertex-triangle and edge-edge pair (not
 /// sharing a vertex) closer than `thickness` (> 0, finite) at `positions`,
 /// sorted as a [`Detector`]'s proximity contacts and equal to them to the bit
