@@ -206,7 +206,7 @@ fn out_of_range(m: f64) -> bool {
 /// largest magnitude), so every answer is the unit-scale stencil's, at any
 /// scale. Returns the scaled thickness (infinite when it dwarfs the
 /// stencil, which is then within it) and `k` (0 when nothing moved).
-pub(crate) fn rescale(points: &mut [DVec3], thickness: f64) -> (f64, i32) {
+pub fn rescale(points: &mut [DVec3], thickness: f64) -> (f64, i32) {
     let m = points
         .iter()
         .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
