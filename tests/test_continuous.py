@@ -53,6 +53,8 @@ def test_bad_inputs_raise():
     bad[3, 1] = np.nan
     with pytest.raises(ValueError):
         selfcd.continuous_impacts(mesh, x0, bad)
+    with pytest.raises(TypeError, match="selfcd.Mesh"):
+        selfcd.continuous_impacts(x0, x0, x1)
 
 
 def test_one_shot_proximity_is_the_detectors():

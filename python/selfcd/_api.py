@@ -138,6 +138,12 @@ class Mesh:
         return f"selfcd.Mesh(n_vertices={self.n_vertices}, n_faces={self.n_faces})"
 
 
+def _check_mesh(mesh: object) -> None:
+    """TypeError unless `mesh` is a selfcd.Mesh."""
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+
+
 class Detector:
     """Self-collision detector for one mesh, keeping its BVH (and sensor) between calls.
 
@@ -160,8 +166,7 @@ class Detector:
 
     def __init__(self, mesh: Mesh, method: str = DEFAULT_METHOD, thickness: float = 0.0,
                  max_contacts: int | None = None, **method_options: Any) -> None:
-        if not isinstance(mesh, Mesh):
-            raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+        _check_mesh(mesh)
         if not isinstance(method, str):
             raise TypeError(f"method must be a string, got {type(method).__name__}")
         self.mesh = mesh
@@ -249,8 +254,7 @@ class SelfQueries:
     """
 
     def __init__(self, mesh: Mesh, skin: float | None = None) -> None:
-        if not isinstance(mesh, Mesh):
-            raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+        _check_mesh(mesh)
         self.mesh = mesh
         self._inner = _core.SelfQueries(mesh._inner, None if skin is None else _arrays.number(skin, "skin"))
 
@@ -385,6 +389,7 @@ def continuous_impacts(
         warnings.warn("continuous_impacts(separation=...) is deprecated: the argument is "
                       "called thickness, as in every other query", DeprecationWarning, stacklevel=2)
         thickness = separation
+    _check_mesh(mesh)
     n = mesh.n_vertices
     return _core.continuous_impacts(
         mesh._inner, _arrays.points(x0, "x0", n), _arrays.points(x1, "x1", n),
@@ -413,8 +418,7 @@ def proximity_contacts(mesh: Mesh, positions: npt.ArrayLike, thickness: float,
         (rows of `mesh.edges`), "edge_edge_vertices" (m, 4), "edge_edge_distance"
         (m,) and "edge_edge_params" (m, 2); sorted by element ids.
     """
-    if not isinstance(mesh, Mesh):
-        raise TypeError(f"mesh must be a selfcd.Mesh, got {type(mesh).__name__}")
+    _check_mesh(mesh)
     return _core.proximity_contacts(
         mesh._inner, _arrays.points(positions, "positions", mesh.n_vertices),
         _arrays.number(thickness, "thickness"), _arrays.limit(max_contacts, "max_contacts"))

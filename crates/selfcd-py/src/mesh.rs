@@ -119,9 +119,18 @@ pub fn position_groups<'py>(
     Ok((ids(&g.group), ids(&g.first)))
 }
 
-/// `positions` as points, or None for the mesh's rest shape (no copy).
-fn positions_or_rest(positions: Option<PyReadonlyArray2<'_, f64>>) -> PyResult<Option<Vec<DVec3>>> {
-    positions.map(|p| points(&p, "positions")).transpose()
+/// Runs `query` on the mesh at `positions` (None: at its rest shape, not
+/// copied) without the GIL, engine errors raised as `what`'s.
+fn at_positions<T: Send>(
+    py: Python<'_>,
+    mesh: &PyMesh,
+    positions: Option<PyReadonlyArray2<'_, f64>>,
+    what: &str,
+    query: impl FnOnce(&Arc<Mesh>, &[DVec3]) -> selfcd::Result<T> + Send,
+) -> PyResult<T> {
+    let p = positions.map(|p| points(&p, "positions")).transpose()?;
+    let m = mesh.inner.clone();
+    py.detach(|| guard(what, || query(&m, p.as_deref().unwrap_or(m.rest()))))
 }
 
 /// One-shot exact query: intersecting non-adjacent face pairs of `mesh` at
@@ -133,11 +142,8 @@ pub fn self_intersections<'py>(
     mesh: &PyMesh,
     positions: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let p = positions_or_rest(positions)?;
-    let m = mesh.inner.clone();
-    let pairs = py.detach(|| {
-        let at = p.as_deref().unwrap_or(m.rest());
-        guard("self_intersections", || selfcd::self_intersections(&m, at))
+    let pairs = at_positions(py, mesh, positions, "self_intersections", |m, at| {
+        selfcd::self_intersections(m, at)
     })?;
     pairs_array(py, &pairs)
 }
@@ -152,13 +158,8 @@ pub fn one_shot_detection<'py>(
     mesh: &PyMesh,
     positions: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
-    let p = positions_or_rest(positions)?;
-    let m = mesh.inner.clone();
-    let det = py.detach(|| {
-        let at = p.as_deref().unwrap_or(m.rest());
-        guard("one_shot_detection", || {
-            selfcd::detect::one_shot_detection(&m, at)
-        })
+    let det = at_positions(py, mesh, positions, "one_shot_detection", |m, at| {
+        selfcd::detect::one_shot_detection(m, at)
     })?;
     Ok((pairs_array(py, &det.pairs)?, stats_dict(py, &det.stats)?))
 }
@@ -173,13 +174,8 @@ pub fn first_intersection(
     mesh: &PyMesh,
     positions: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Option<(u32, u32)>> {
-    let p = positions_or_rest(positions)?;
-    let m = mesh.inner.clone();
-    let pair = py.detach(|| {
-        let at = p.as_deref().unwrap_or(m.rest());
-        guard("first_intersection", || {
-            selfcd::detect::first::first_intersection(&m, at)
-        })
+    let pair = at_positions(py, mesh, positions, "first_intersection", |m, at| {
+        selfcd::detect::first::first_intersection(m, at)
     })?;
     Ok(pair.map(|[a, b]| (a, b)))
 }

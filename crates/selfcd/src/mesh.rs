@@ -6,6 +6,7 @@
 
 use crate::error::{Error, Result};
 use crate::geom::predicates::{exponent, mul_pow2};
+use crate::geom::Aabb;
 use crate::union_find;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -416,6 +417,14 @@ impl Mesh {
             positions[b as usize],
             positions[c as usize],
         ]
+    }
+
+    /// The box of triangle `t` over the linear motion from `x0` to `x1`: its
+    /// corners' boxes at both ends (each point of the swept triangle is a
+    /// convex combination of them).
+    #[inline]
+    pub fn swept_box(&self, x0: &[DVec3], x1: &[DVec3], t: usize) -> Aabb {
+        Aabb::from_points(&self.corners(x0, t)).union(&Aabb::from_points(&self.corners(x1, t)))
     }
 
     /// True when triangles `a` and `b` share at least one vertex.

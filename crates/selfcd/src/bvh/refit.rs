@@ -52,11 +52,7 @@ impl Bvh {
     /// culling applies. [`refit_swept_cones`](Self::refit_swept_cones) fits
     /// the cones too, for the swept certificate at thickness 0.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
-        let fit = |t| {
-            let b = Aabb::from_points(&mesh.corners(x0, t))
-                .union(&Aabb::from_points(&mesh.corners(x1, t)));
-            (b, NormalCone::FULL, ())
-        };
+        let fit = |t| (mesh.swept_box(x0, x1, t), NormalCone::FULL, ());
         self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
     }
 

@@ -91,8 +91,7 @@ impl Shape<'_> {
     fn bbox(&self, mesh: &Mesh, t: usize) -> Aabb {
         match *self {
             Shape::At(x) => Aabb::from_points(&mesh.corners(x, t)),
-            Shape::Swept(x0, x1) => Aabb::from_points(&mesh.corners(x0, t))
-                .union(&Aabb::from_points(&mesh.corners(x1, t))),
+            Shape::Swept(x0, x1) => mesh.swept_box(x0, x1, t),
         }
     }
 
@@ -356,23 +355,11 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     ) -> (Query<'a, V>, Fit) {
         let n = mesh.n_triangles();
         let k = normals_read(shape, gap);
+        // What the certificates read (nothing when none is tried).
         let m = if k > 0 { n } else { 0 };
-        let mut normals = vec![(DVec3::ZERO, 0.0); k * n];
+        let mut normals = vec![(DVec3::ZERO, 0.0); k * m];
         let mut across = vec![[0u32; 3]; m];
         let mut edge_flags = vec![0u8; m];
-        let fit_piece = |start: usize,
-                         normals: &mut [(DVec3, f64)],
-                         across: &mut [[u32; 3]],
-                         flags: &mut [u8]| {
-            let mut fit = Fit::EMPTY;
-            for (i, t) in (start..(start + CHUNK).min(n)).enumerate() {
-                let units = &mut normals[k * i..k * i + k];
-                shape.unit_normals(mesh, t, units);
-                (across[i], flags[i]) = neighbours(mesh, t as u32);
-                fit = fit.add(&shape.bbox(mesh, t), units);
-            }
-            fit
-        };
         let boxes = OnceLock::new();
         let fits: Vec<Fit> = if k > 0 {
             (
@@ -382,7 +369,16 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(c, (normals, across, flags))| fit_piece(c * CHUNK, normals, across, flags))
+                .map(|(c, (normals, across, flags))| {
+                    let mut fit = Fit::EMPTY;
+                    for (i, t) in (c * CHUNK..).take(across.len()).enumerate() {
+                        let units = &mut normals[k * i..k * i + k];
+                        shape.unit_normals(mesh, t, units);
+                        (across[i], flags[i]) = neighbours(mesh, t as u32);
+                        fit = fit.add(&shape.bbox(mesh, t), units);
+                    }
+                    fit
+                })
                 .collect()
         } else {
             // Nothing is certified, so the root splits: its triangles' boxes

@@ -53,8 +53,8 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
 use super::narrow::{
-    collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key, ElementPair,
-    Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
+    check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key,
+    ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
@@ -715,11 +715,7 @@ impl SelfQueries {
         s: &mut FrameStats,
     ) -> Result<ProximityContacts> {
         self.mesh.check_positions(x)?;
-        if !(thickness > 0.0 && thickness.is_finite()) {
-            return Err(Error::InvalidParameter(format!(
-                "thickness must be positive and finite, got {thickness}"
-            )));
-        }
+        check_thickness(thickness)?;
         let prepared = self.prepare(&[x], thickness, s)?;
         let allowance = prepared.0;
         if !self.all_covered(allowance) {

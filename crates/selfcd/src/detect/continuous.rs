@@ -173,8 +173,7 @@ pub(crate) fn candidate_toi(
 ) -> Option<Impact> {
     let swept = |t: u32| match leaves {
         Some(boxes) => boxes[t as usize],
-        None => Aabb::from_points(&mesh.corners(x0, t as usize))
-            .union(&Aabb::from_points(&mesh.corners(x1, t as usize))),
+        None => mesh.swept_box(x0, x1, t as usize),
     };
     if a == b || !swept(a).within(&swept(b), thickness) {
         return None;

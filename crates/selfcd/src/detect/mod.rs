@@ -223,11 +223,7 @@ pub fn proximity_contacts(
     max_contacts: usize,
 ) -> Result<(ProximityContacts, Counters)> {
     mesh.check_positions(positions)?;
-    if !(thickness > 0.0 && thickness.is_finite()) {
-        return Err(Error::InvalidParameter(format!(
-            "thickness must be positive and finite, got {thickness}"
-        )));
-    }
+    narrow::check_thickness(thickness)?;
     let near = narrow::Proximity::new(mesh, positions, thickness, max_contacts);
     let shape = crate::bvh::topdown::Shape::At(positions);
     let (items, counters) = crate::bvh::topdown::query(mesh, shape, thickness, &near);

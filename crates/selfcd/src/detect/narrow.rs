@@ -148,6 +148,17 @@ pub enum Near {
 /// triangles, and the query must fail clearly before memory runs out.
 pub const DEFAULT_MAX_CONTACTS: usize = 20_000_000;
 
+/// Err([`Error::InvalidParameter`]) unless `thickness` is a proximity
+/// query's: positive and finite.
+pub(crate) fn check_thickness(thickness: f64) -> Result<()> {
+    if !(thickness > 0.0 && thickness.is_finite()) {
+        return Err(Error::InvalidParameter(format!(
+            "thickness must be positive and finite, got {thickness}"
+        )));
+    }
+    Ok(())
+}
+
 /// Proximity test with thickness `d` between two triangles of one mesh.
 pub struct Proximity<'a> {
     /// The mesh (triangles, edges).

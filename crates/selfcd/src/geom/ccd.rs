@@ -50,11 +50,9 @@ const STEP: f64 = 0.9;
 const MAX_ITERATIONS: u32 = 100_000;
 
 /// Squared distance between the two elements of a stencil at corners `x`.
+#[inline]
 pub fn distance2(pair: StencilKind, x: &[DVec3; 4]) -> f64 {
-    match pair {
-        StencilKind::VertexTriangle => point_triangle_distance2(x[0], x[1], x[2], x[3]).0,
-        StencilKind::EdgeEdge => segment_segment_distance2(x[0], x[1], x[2], x[3]).0,
-    }
+    distance2_and_params(pair, x).0
 }
 
 /// Bound on how fast the distance of the pair can shrink: the largest relative

@@ -129,11 +129,17 @@ impl NormalCone {
     #[inline]
     pub fn of_triangle(a: DVec3, b: DVec3, c: DVec3) -> NormalCone {
         match Self::unit_normal(a, b, c) {
-            Some((axis, err)) => NormalCone {
-                axis,
-                quarter: Angle::ZERO.widen(0.5 * err),
-            },
+            Some(unit) => Self::of_unit(unit),
             None => NormalCone::FULL,
+        }
+    }
+
+    /// The cone of the directions within `err` radians of unit `axis`.
+    #[inline]
+    fn of_unit((axis, err): (DVec3, f64)) -> NormalCone {
+        NormalCone {
+            axis,
+            quarter: Angle::ZERO.widen(0.5 * err),
         }
     }
 
@@ -210,10 +216,7 @@ impl NormalCone {
         let Some(units) = Self::swept_unit_normals(x0, x1) else {
             return NormalCone::FULL;
         };
-        let [c0, c1, c2] = units.map(|(axis, err)| NormalCone {
-            axis,
-            quarter: Angle::ZERO.widen(0.5 * err),
-        });
+        let [c0, c1, c2] = units.map(Self::of_unit);
         // Equal cones (a triangle that does not move) are not merged: the
         // merge of two cones on one axis can round to the full cone.
         let merge = |a: NormalCone, b: NormalCone| if a == b { a } else { a.merge(&b) };
