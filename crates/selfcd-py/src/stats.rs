@@ -32,6 +32,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("slab_culls", U(s.slab_culls)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("front_jobs", U(s.front_jobs)),
+        ("front_skips", U(s.front_skips)),
         ("primitive_tests", U(s.primitive_tests)),
         ("filter_decisions", U(s.filter_decisions)),
         ("proximity_tests", U(s.proximity_tests)),

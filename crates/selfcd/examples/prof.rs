@@ -111,7 +111,7 @@ fn main() {
         }
         if each {
             println!(
-                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}, self culls {}, pair culls {}, adjacent skips {}, front jobs {}",
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}, self culls {}, pair culls {}, adjacent skips {}, front jobs {} (skipped {})",
                 s.refit_time * 1e3,
                 s.traverse_time * 1e3,
                 s.contour_tests,
@@ -123,7 +123,8 @@ fn main() {
                 s.self_culls,
                 s.pair_culls,
                 s.adjacent_skips,
-                s.front_jobs
+                s.front_jobs,
+                s.front_skips
             );
         }
         refit = refit.min(s.refit_time);

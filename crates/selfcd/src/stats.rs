@@ -31,6 +31,10 @@ pub struct FrameStats {
     /// (reused work: the descent from the root down to them was skipped;
     /// [`crate::bvh::traverse::Front`]); 0 when the traversal began at the root.
     pub front_jobs: u64,
+    /// Of those, the jobs skipped: what they hold was far enough apart for
+    /// the vertices' displacement since ([`crate::bvh::traverse::Front`],
+    /// "Clearance"), so they stop where they did and find nothing (reused work).
+    pub front_skips: u64,
     /// Triangle-triangle tests run: the paper's polygon-polygon checks.
     pub primitive_tests: u64,
     /// Of those, the pairs the floating-point filter proved apart without the
@@ -94,6 +98,8 @@ pub struct Counters {
     pub adjacent_skips: u64,
     /// See [`FrameStats::front_jobs`].
     pub front_jobs: u64,
+    /// See [`FrameStats::front_skips`].
+    pub front_skips: u64,
     /// See [`FrameStats::primitive_tests`].
     pub primitive_tests: u64,
     /// See [`FrameStats::filter_decisions`].
@@ -112,6 +118,7 @@ impl Counters {
         self.slab_culls += o.slab_culls;
         self.adjacent_skips += o.adjacent_skips;
         self.front_jobs += o.front_jobs;
+        self.front_skips += o.front_skips;
         self.primitive_tests += o.primitive_tests;
         self.filter_decisions += o.filter_decisions;
     }
@@ -127,6 +134,7 @@ impl Counters {
         s.slab_culls += self.slab_culls;
         s.adjacent_skips += self.adjacent_skips;
         s.front_jobs += self.front_jobs;
+        s.front_skips += self.front_skips;
         s.primitive_tests += self.primitive_tests;
         s.filter_decisions += self.filter_decisions;
     }
@@ -142,6 +150,7 @@ impl Counters {
         s.slab_culls = self.slab_culls;
         s.adjacent_skips = self.adjacent_skips;
         s.front_jobs = self.front_jobs;
+        s.front_skips = self.front_skips;
         s.primitive_tests = self.primitive_tests;
         s.filter_decisions = self.filter_decisions;
     }

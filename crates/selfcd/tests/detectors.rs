@@ -502,12 +502,13 @@ fn animation(mesh: &Mesh, target: &[DVec3], steps: usize, wobble: usize) -> Vec<
 
 /// Kept detectors over animations: each frame's pairs equal brute force's,
 /// though from the third frame on the traversal starts from the front kept
-/// from the last frame, and in the wobble many `bvh-cones-contour` culls
-/// reuse contour certificates kept from earlier frames (both counted, so the
+/// from the last frame (rebased while the mesh deforms, its clear jobs
+/// skipped in the wobble), and in the wobble many `bvh-cones-contour` culls
+/// reuse contour certificates kept from earlier frames (all counted, so the
 /// kept paths are run).
 #[test]
 fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
-    let (mut reused, mut fresh) = (0, 0);
+    let (mut reused, mut fresh, mut skipped) = (0, 0, 0);
     for (mname, mesh) in meshes().into_iter().skip(1).take(2) {
         for (sname, shape) in shapes() {
             let frames = animation(&mesh, &shape.apply(mesh.rest()), 6, 10);
@@ -519,6 +520,7 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                     let want = detect(&mesh, Method::Brute, p, 0.0).pairs;
                     assert_eq!(got.pairs, want, "{m} {mname}/{sname} frame {k}");
                     front_jobs += got.stats.front_jobs;
+                    skipped += got.stats.front_skips;
                     if k > 6 && m == Method::BvhConesContour {
                         reused += got.stats.certificates_reused;
                         fresh += got.stats.contour_tests;
@@ -531,11 +533,49 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
             }
         }
     }
-    println!("certificates reused {reused}, fresh contour tests {fresh}");
+    println!(
+        "certificates reused {reused}, fresh contour tests {fresh}, front jobs skipped {skipped}"
+    );
+    assert!(skipped > 1000, "front jobs skipped {skipped}");
     // 22,327 reused against 38,050 fresh tests when written, 33,705 against
     // 26,672 with the twelfth landing's slacks (deterministic: the kept
     // certificates depend on the frames only, not on threads).
     assert!(reused > 10_000, "reused {reused}, fresh {fresh}");
+}
+
+/// Kept detectors over the animations scaled by powers of two (exact) give
+/// the unit-scale pairs on every frame: the front's clearances and the
+/// vertices' displacement bound hold at every scale (at 2^-1000 nothing is
+/// clear enough to skip, and nothing may be skipped wrongly).
+#[test]
+fn kept_sequences_at_extreme_scales_give_the_unit_pairs() {
+    let (_, mesh) = meshes().into_iter().nth(1).unwrap();
+    for (sname, shape) in shapes().into_iter().skip(1).take(3) {
+        let frames = animation(&mesh, &shape.apply(mesh.rest()), 6, 10);
+        let want: Vec<_> = (frames.iter())
+            .map(|p| detect(&mesh, Method::Brute, p, 0.0).pairs)
+            .collect();
+        for e in [-1000, -300, 300, 1000] {
+            let s = 2f64.powi(e);
+            let scaled = Arc::new(
+                Mesh::new(
+                    scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
+                    mesh.triangles().to_vec(),
+                )
+                .unwrap(),
+            );
+            let mut d = new_detector(scaled, Method::BvhConesContour, &Default::default()).unwrap();
+            let mut skipped = 0;
+            for (k, p) in frames.iter().enumerate() {
+                let got = d.detect(&scale(p, s)).unwrap();
+                assert_eq!(got.pairs, want[k], "{sname} at 2^{e}, frame {k}");
+                skipped += got.stats.front_skips;
+            }
+            if e.abs() == 300 {
+                assert!(skipped > 0, "{sname} at 2^{e}: nothing skipped");
+            }
+        }
+    }
 }
 
 /// A front that grew past a quarter over its length when recorded from the

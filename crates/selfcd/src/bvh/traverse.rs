@@ -38,6 +38,20 @@
 //! other pairs than from the root. The front only deepens, so the caller
 //! records a new one from the root when it has grown.
 //!
+//! **Clearance.** A recorded job also keeps how far apart what it holds was
+//! (its *clearance*; 0 where nothing is known): the gap between the boxes of
+//! a pair found apart, or the visitor's bound on the distance between two
+//! leaves it found nothing for ([`LeafVisitor::clearance`]). Every point of
+//! a node moves at most as far as its farthest vertex, so while no vertex
+//! has moved more than half of a job's clearance the boxes are still apart
+//! (or the leaves still farther apart than the visitor's distance) and the
+//! job stops where it did, finding nothing: a traversal from the front skips
+//! it ([`Start::Front`], counted in [`Counters::front_skips`]). Clearances
+//! are kept against one set of reference positions: the caller passes the
+//! largest vertex displacement from them, and a job run now stores its
+//! clearance less twice that displacement (its bound for any later frame
+//! through the reference).
+//!
 //! Top levels run in parallel with `rayon::join` (a front, by chunks); each
 //! task keeps its own results, counters and cull buffers, and the join order
 //! is fixed, so the output is the same for any number of threads.
@@ -88,6 +102,15 @@ pub trait LeafVisitor: Sync {
     ) {
         self.visit(a, b, adjacent, out)
     }
+
+    /// A lower bound on the distance between triangles `a` and `b`, for a
+    /// pair whose visit found nothing: while no vertex moves more than half
+    /// of it, a visit still finds nothing (module doc, "Clearance"). 0, the
+    /// default, when the visitor knows none.
+    #[inline]
+    fn clearance(&self, _a: u32, _b: u32) -> f64 {
+        0.0
+    }
 }
 
 /// Where a traversal starts, and whether it records its front.
@@ -98,8 +121,12 @@ pub enum Start<'a> {
     /// At the root, recording the front.
     RootRecording,
     /// At the jobs of a front an earlier traversal of the same hierarchy
-    /// recorded, recording the new front.
-    Front(&'a Front),
+    /// recorded, recording the new front. With `Some(moved)`, no vertex is
+    /// farther than `moved` from the front's reference positions, and the
+    /// jobs whose clearance exceeds twice that are skipped; with `None`, the
+    /// positions become the new reference: every job runs (module doc,
+    /// "Clearance").
+    Front(&'a Front, Option<f64>),
 }
 
 /// The jobs at which a traversal stopped, in its order (see the module doc),
@@ -108,7 +135,45 @@ pub enum Start<'a> {
 /// recorded it only: it holds node ids.
 #[derive(Debug, Clone, Default)]
 pub struct Front {
-    chunks: Vec<Vec<Job>>,
+    chunks: Vec<Vec<Stop>>,
+}
+
+/// A job at which a traversal stopped, with its clearance at the front's
+/// reference positions (module doc) in units of [`clear_unit`], rounded
+/// down to `f32` (half the bytes of a `f64`, and the jobs are streamed every
+/// frame).
+#[derive(Debug, Clone, Copy)]
+struct Stop {
+    job: Job,
+    clear: f32,
+}
+
+impl Stop {
+    /// `job` with clearance `clear` (rounded down; 0 unless positive) in
+    /// units of `unit`.
+    #[inline]
+    fn new(job: Job, clear: f64, unit: f64) -> Stop {
+        // A relative 1e-6 below `clear` is below the f32 nearest it (normal
+        // f32 only: subnormal ones round by more, so they are dropped).
+        let clear = (clear / unit * (1.0 - 1e-6)).min(f32::MAX as f64);
+        Stop {
+            job,
+            clear: if clear >= 1e-30 { clear as f32 } else { 0.0 },
+        }
+    }
+}
+
+/// The unit of a front's clearances: the power of two nearest the mesh's
+/// mean rest edge length (so that `f32` holds them at any scale; dividing
+/// by it is exact), or 1 where that is not finite and positive.
+fn clear_unit(mesh: &Mesh) -> f64 {
+    let e = mesh.mean_edge_length();
+    let unit = e.log2().round().exp2();
+    if unit.is_normal() {
+        unit
+    } else {
+        1.0
+    }
 }
 
 impl Front {
@@ -209,9 +274,14 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         cull,
         visitor,
         record: !matches!(start, Start::Root),
+        moved2: match start {
+            Start::Front(_, Some(moved)) => Some(2.0 * moved * (1.0 + 1e-12)),
+            _ => None,
+        },
+        unit: clear_unit(mesh),
     };
     let acc = match start {
-        Start::Front(front) => ctx.front_task(&front.chunks),
+        Start::Front(front, _) => ctx.front_task(&front.chunks),
         Start::Root | Start::RootRecording => {
             // Spawn parallel tasks only where there is enough work to share.
             let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
@@ -229,10 +299,10 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         Start::RootRecording => {
             let jobs = front.into_vec();
             Some(Front {
-                chunks: jobs.chunks(FRONT_CHUNK).map(<[Job]>::to_vec).collect(),
+                chunks: jobs.chunks(FRONT_CHUNK).map(<[Stop]>::to_vec).collect(),
             })
         }
-        Start::Front(kept) => {
+        Start::Front(kept, _) => {
             counters.front_jobs = kept.len() as u64;
             // Each chunk's task gave one chunk of the new front.
             Some(Front {
@@ -256,6 +326,12 @@ struct Ctx<'a, C, V> {
     visitor: &'a V,
     /// Keep the jobs at which the traversal stops ([`Front`]).
     record: bool,
+    /// Twice the largest vertex displacement from the front's reference
+    /// positions (None when these positions are the reference): kept jobs
+    /// clearer than this are skipped, and new clearances are stored less it.
+    moved2: Option<f64>,
+    /// The unit of the front's clearances ([`clear_unit`]).
+    unit: f64,
 }
 
 /// A list built by parallel tasks in a fixed order: `done`'s chunks, then
@@ -311,7 +387,7 @@ impl<T> Chunks<T> {
 /// the cull's scratch and the descent's stack.
 struct Acc<T, S> {
     items: Chunks<T>,
-    front: Chunks<Job>,
+    front: Chunks<Stop>,
     counters: Counters,
     scratch: S,
     stack: Vec<Job>,
@@ -348,14 +424,14 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     fn self_task(&self, n: u32, depth: u32) -> Acc<V::Item, C::Scratch> {
         let mut acc = Acc::new();
         if depth == 0 {
-            self.run(Job::Node(n), &mut acc);
+            self.run(Job::Node(n), None, &mut acc);
             return acc;
         }
         if self.bvh.is_leaf(n) {
             return acc;
         }
         if self.self_culled(n, &mut acc) {
-            self.stop(Job::Node(n), &mut acc);
+            self.stop(Job::Node(n), Clear::None, None, &mut acc);
             return acc;
         }
         let [l, r] = self.bvh.children_of(n);
@@ -374,15 +450,15 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     fn pair_task(&self, a: u32, b: u32, siblings: bool, depth: u32) -> Acc<V::Item, C::Scratch> {
         let mut acc = Acc::new();
         if depth == 0 {
-            self.run(Job::Pair(a, b, siblings), &mut acc);
+            self.run(Job::Pair(a, b, siblings), None, &mut acc);
             return acc;
         }
         match self.pair_step(a, b, siblings, &mut acc) {
-            None => {
-                self.stop(Job::Pair(a, b, siblings), &mut acc);
+            Step::Done(clear) => {
+                self.stop(Job::Pair(a, b, siblings), clear, None, &mut acc);
                 acc
             }
-            Some((keep, [x, y])) => {
+            Step::Split(keep, [x, y]) => {
                 let (p, q) = rayon::join(
                     || self.pair_task(keep, x, false, depth - 1),
                     || self.pair_task(keep, y, false, depth - 1),
@@ -395,19 +471,39 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     /// The jobs of a front, a chunk per parallel task, each job run as the
     /// descent runs it; the tasks' fronts are the new front's chunks (a
     /// chunk's task joins nothing, so its whole front is one).
-    fn front_task(&self, chunks: &[Vec<Job>]) -> Acc<V::Item, C::Scratch> {
-        let chunk = |jobs: &Vec<Job>| {
+    fn front_task(&self, chunks: &[Vec<Stop>]) -> Acc<V::Item, C::Scratch> {
+        // Jobs clearer than this (in the clearances' unit) stop where they
+        // did, finding nothing (none when these positions become the
+        // reference). Dividing by a power of two is exact, or overflows to
+        // infinity (nothing skipped), or underflows far below any kept
+        // clearance (at least 1e-30 units).
+        let skip = self.moved2.map_or(f64::INFINITY, |m| m / self.unit);
+        let chunk = |jobs: &Vec<Stop>| {
             let mut acc = Acc::new();
             acc.front.last.reserve(jobs.len() + jobs.len() / 8);
-            for (i, &job) in jobs.iter().enumerate() {
-                if let Some(&Job::Pair(a, b, _)) = jobs.get(i + FRONT_AHEAD) {
-                    // Boxes only: most front jobs stop at their boxes, and
-                    // `prefetch_node`'s children too made the crumpled grid
-                    // 9% slower.
-                    prefetch(&self.bvh.boxes[a as usize]);
-                    prefetch(&self.bvh.boxes[b as usize]);
+            for (i, &stop) in jobs.iter().enumerate() {
+                if stop.clear as f64 > skip {
+                    acc.counters.front_skips += 1;
+                    acc.front.last.push(stop);
+                    continue;
                 }
-                self.run(job, &mut acc);
+                if let Some(&Stop {
+                    job: Job::Pair(a, b, _),
+                    clear,
+                }) = jobs.get(i + FRONT_AHEAD)
+                {
+                    if clear as f64 <= skip {
+                        // Boxes only: most front jobs stop at their boxes, and
+                        // `prefetch_node`'s children too made the crumpled grid
+                        // 9% slower.
+                        prefetch(&self.bvh.boxes[a as usize]);
+                        prefetch(&self.bvh.boxes[b as usize]);
+                    }
+                }
+                // A job that stops where it did keeps its clearance (a bound
+                // at the reference positions, which have not changed).
+                let kept = self.moved2.map(|_| stop.clear);
+                self.run(stop.job, kept, &mut acc);
             }
             acc
         };
@@ -416,43 +512,68 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     }
 
     /// Sequential traversal from one job with the task's stack.
-    fn run(&self, job: Job, acc: &mut Acc<V::Item, C::Scratch>) {
+    /// `kept`: the clearance `job` keeps if it stops where it is.
+    fn run(&self, job: Job, mut kept: Option<f32>, acc: &mut Acc<V::Item, C::Scratch>) {
         let mut stack = std::mem::take(&mut acc.stack);
         stack.push(job);
         while let Some(job) = stack.pop() {
+            let kept = kept.take();
             match job {
                 Job::Node(n) => {
                     if self.bvh.is_leaf(n) {
                         continue;
                     }
                     if self.self_culled(n, acc) {
-                        self.stop(job, acc);
+                        self.stop(job, Clear::None, kept, acc);
                     } else if n < self.small_end {
                         self.small_self(n, acc);
-                        self.stop(job, acc);
+                        self.stop(job, Clear::None, kept, acc);
                     } else {
                         let [l, r] = self.bvh.children_of(n);
                         stack.extend([Job::Pair(l, r, true), Job::Node(r), Job::Node(l)]);
                     }
                 }
                 Job::Pair(a, b, siblings) => match self.pair_step(a, b, siblings, acc) {
-                    Some((keep, [x, y])) => {
+                    Step::Split(keep, [x, y]) => {
                         self.prefetch_node(y);
                         self.prefetch_node(x);
                         stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
                     }
-                    None => self.stop(job, acc),
+                    Step::Done(clear) => self.stop(job, clear, kept, acc),
                 },
             }
         }
         acc.stack = stack;
     }
 
-    /// The traversal stopped at `job`: a front job, when recording.
+    /// The traversal stopped at `job`: a front job, when recording, with
+    /// its `kept` clearance, or the one measured from `clear` at these
+    /// positions less twice their displacement from the front's reference.
     #[inline]
-    fn stop(&self, job: Job, acc: &mut Acc<V::Item, C::Scratch>) {
-        if self.record {
-            acc.front.last.push(job);
+    fn stop(&self, job: Job, clear: Clear, kept: Option<f32>, acc: &mut Acc<V::Item, C::Scratch>) {
+        if !self.record {
+            return;
+        }
+        let stop = match kept {
+            Some(clear) => Stop { job, clear },
+            None => {
+                let clear = self.clearance(clear) - self.moved2.unwrap_or(0.0);
+                Stop::new(job, clear, self.unit)
+            }
+        };
+        acc.front.last.push(stop);
+    }
+
+    /// The clearance at these positions of what a stopped job holds.
+    fn clearance(&self, clear: Clear) -> f64 {
+        match clear {
+            Clear::None => 0.0,
+            Clear::Boxes(a, b) => {
+                let (x, y) = (&self.bvh.boxes[a as usize], &self.bvh.boxes[b as usize]);
+                // The gap along the axis that separates them most, beyond the traversal's.
+                (x.min - y.max).max(y.min - x.max).max_element() - self.gap
+            }
+            Clear::Leaves(a, b) => self.visitor.clearance(a, b),
         }
     }
 
@@ -475,24 +596,28 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             .self_culled(n, &mut acc.scratch, &mut acc.counters)
     }
 
-    /// The primitive test of two leaves (kept out of the descent's hot loop).
+    /// The primitive test of two leaves (kept out of the descent's hot
+    /// loop); returns what their clearance is measured from.
     #[inline(never)]
-    fn leaf_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
+    fn leaf_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) -> Clear {
         let adjacent = self.mesh.share_vertex(a as usize, b as usize);
         if adjacent {
             acc.counters.adjacent_skips += 1;
             if V::SKIP_ADJACENT {
-                return;
+                return Clear::None;
             }
         }
         acc.counters.primitive_tests += 1;
-        self.visitor.visit_counted(
-            a.min(b),
-            a.max(b),
-            adjacent,
-            &mut acc.items.last,
-            &mut acc.counters,
-        );
+        let (lo, hi) = (a.min(b), a.max(b));
+        let found = acc.items.last.len();
+        let items = &mut acc.items.last;
+        self.visitor
+            .visit_counted(lo, hi, adjacent, items, &mut acc.counters);
+        if !adjacent && items.len() == found {
+            Clear::Leaves(lo, hi)
+        } else {
+            Clear::None
+        }
     }
 
     /// The leaf pairs of small node `n`, each tested as the descent tests
@@ -563,8 +688,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         sa.apart(&sb.carry(ub, &bvh.boxes[b], ua), gap)
     }
 
-    /// One step of pair(a, b): tests and culls, and returns the pairs to descend
-    /// into as (node kept, children of the node split), or None when done.
+    /// One step of pair(a, b): tests and culls, and returns the pairs to
+    /// descend into, or that the pair is done with its clearance.
     #[inline]
     fn pair_step(
         &self,
@@ -572,33 +697,52 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         b: u32,
         siblings: bool,
         acc: &mut Acc<V::Item, C::Scratch>,
-    ) -> Option<(u32, [u32; 2])> {
+    ) -> Step {
         let bvh = self.bvh;
         if !self.may_meet(a, b, acc) {
-            return None;
+            return Step::Done(Clear::Boxes(a, b));
         }
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
         if la && lb {
-            self.leaf_pair(a, b, acc);
-            return None;
+            return Step::Done(self.leaf_pair(a, b, acc));
         }
         if !siblings
             && self
                 .cull
                 .pair_culled(a, b, &mut acc.scratch, &mut acc.counters)
         {
-            return None;
+            return Step::Done(Clear::None);
         }
         if a < self.small_end && b < self.small_end {
             self.small_pair(a, b, acc);
-            return None;
+            return Step::Done(Clear::None);
         }
         let split_b = la || (!lb && bb.surface_area() > ba.surface_area());
-        Some(if split_b {
-            (a, bvh.children_of(b))
+        if split_b {
+            Step::Split(a, bvh.children_of(b))
         } else {
-            (b, bvh.children_of(a))
-        })
+            Step::Split(b, bvh.children_of(a))
+        }
     }
+}
+
+/// What one step of pair(a, b) decided.
+enum Step {
+    /// Descend into the pairs of the node kept with each child of the other.
+    Split(u32, [u32; 2]),
+    /// Done, with what its clearance would be measured from ([`Stop`]).
+    Done(Clear),
+}
+
+/// What a stopped job's clearance is measured from, when it is needed
+/// (recording, and no clearance kept for the job).
+#[derive(Clone, Copy)]
+enum Clear {
+    /// Nothing known: 0.
+    None,
+    /// Boxes found apart.
+    Boxes(u32, u32),
+    /// Leaves whose visit found nothing.
+    Leaves(u32, u32),
 }

@@ -12,6 +12,7 @@ use crate::error::Result;
 use crate::mesh::Mesh;
 use crate::stats::{Counters, FrameStats};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -33,12 +34,14 @@ pub struct BvhDetector {
     front: Option<KeptFront>,
 }
 
-/// The intersection traversal's front, and its length when last recorded
-/// from the root.
+/// The intersection traversal's front, its length when last recorded from
+/// the root, and the reference positions its clearances are kept against
+/// ([`crate::bvh::traverse`], "Clearance").
 #[derive(Debug)]
 struct KeptFront {
     front: Front,
     from_root: usize,
+    reference: Vec<DVec3>,
 }
 
 /// The front is recorded again from the root once it has grown past this
@@ -47,17 +50,56 @@ struct KeptFront {
 /// more than the jobs above it.
 const FRONT_GROWTH: f64 = 1.25;
 
+/// The front's reference positions are reset once a vertex has moved this
+/// many mean edge lengths from them: past it few jobs are clear enough to
+/// be skipped, and the clearances of the jobs run shrink by twice the move.
+const FRONT_REBASE: f64 = 0.25;
+
 impl KeptFront {
     /// Where this frame's traversal starts: the kept front while it has not
-    /// grown too much, else the root (recording).
-    fn start(kept: Option<&KeptFront>) -> Start<'_> {
+    /// grown too much, with the vertices' largest displacement from its
+    /// reference (None: `positions` become the reference), else the root
+    /// (recording).
+    fn start<'a>(kept: Option<&'a KeptFront>, positions: &[DVec3], rebase: f64) -> Start<'a> {
         match kept {
             Some(k) if k.front.len() as f64 <= FRONT_GROWTH * k.from_root as f64 => {
-                Start::Front(&k.front)
+                let moved = largest_move(&k.reference, positions);
+                Start::Front(&k.front, (moved <= rebase).then_some(moved))
             }
             _ => Start::RootRecording,
         }
     }
+}
+
+/// Below this many vertices the displacement pass runs on one thread.
+const PAR_MIN: usize = 1 << 14;
+
+/// The largest distance of a vertex from its reference position, rounded
+/// up (the rounding of each difference and norm is far below 1e-12 of it).
+/// Where the largest squared distance leaves the normal range (underflow),
+/// sqrt(3) times the largest coordinate difference (exact there) bounds it.
+fn largest_move(reference: &[DVec3], positions: &[DVec3]) -> f64 {
+    let far = |(r, x): (&DVec3, &DVec3)| {
+        let d = *x - *r;
+        (d.length_squared(), d.abs().max_element())
+    };
+    let max = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
+    let (d2, di) = if positions.len() < PAR_MIN {
+        reference
+            .iter()
+            .zip(positions)
+            .map(far)
+            .fold((0.0, 0.0), max)
+    } else {
+        let pairs = reference.par_iter().zip(positions);
+        pairs.map(far).reduce(|| (0.0, 0.0), max)
+    };
+    let d = if d2 >= 1e-300 {
+        d2.sqrt()
+    } else {
+        3f64.sqrt() * di
+    };
+    d * (1.0 + 1e-12)
 }
 
 /// When a detector fits slabs ([`Bvh::fit_slabs`]). They cull node pairs
@@ -235,11 +277,13 @@ impl BvhDetector {
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let start = if sequence {
-            KeptFront::start(self.front.as_ref())
+            let rebase = FRONT_REBASE * self.mesh.mean_edge_length();
+            KeptFront::start(self.front.as_ref(), positions, rebase)
         } else {
             Start::Root
         };
-        let from_kept = matches!(start, Start::Front(_));
+        let from_kept = matches!(start, Start::Front(..));
+        let rebased = !matches!(start, Start::Front(_, Some(_)));
         let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
@@ -248,11 +292,20 @@ impl BvhDetector {
         }
         let (mut det, front) = det?;
         if let Some(front) = front {
-            let from_root = match self.front.take() {
-                Some(k) if from_kept => k.from_root,
-                _ => front.len(),
+            let (from_root, mut reference) = match self.front.take() {
+                Some(k) if from_kept => (k.from_root, k.reference),
+                Some(k) => (front.len(), k.reference),
+                None => (front.len(), Vec::new()),
             };
-            self.front = Some(KeptFront { front, from_root });
+            if rebased {
+                reference.clear();
+                reference.extend_from_slice(positions);
+            }
+            self.front = Some(KeptFront {
+                front,
+                from_root,
+                reference,
+            });
         }
         det.stats.refit_time = refit_time;
         Ok(det)

@@ -9,7 +9,7 @@ use crate::bvh::traverse::LeafVisitor;
 use crate::error::{Error, Result};
 use crate::geom::ccd::StencilKind;
 use crate::geom::distance::HullCull;
-use crate::geom::tri_tri::{triangles_intersect_filtered, Decision};
+use crate::geom::tri_tri::{plane_clearance, triangles_intersect_filtered, Decision};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -43,6 +43,15 @@ impl LeafVisitor for Intersect<'_> {
             d if d.intersect() => out.push([a, b]),
             _ => {}
         }
+    }
+
+    /// How far one triangle lies on one side of the other's plane
+    /// ([`plane_clearance`]).
+    #[inline]
+    fn clearance(&self, a: u32, b: u32) -> f64 {
+        let ta = self.mesh.corners(self.positions, a as usize);
+        let tb = self.mesh.corners(self.positions, b as usize);
+        plane_clearance(&ta, &tb)
     }
 }
 
