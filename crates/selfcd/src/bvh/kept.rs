@@ -50,7 +50,7 @@ use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::sync::Mutex;
 
 /// The reference is reset when the mesh's displacement spread exceeds this
@@ -75,7 +75,9 @@ pub struct Kept {
 pub struct KeptCertificates {
     reference: Vec<DVec3>,
     /// Key: `a << 32 | b` for the union of nodes a < b, `n << 32 | n` for node n.
-    kept: HashMap<u64, Kept>,
+    /// (Fx hashing: the traversal looks up every culled job every frame, and
+    /// the keys are node ids, not input an attacker chooses.)
+    kept: FxHashMap<u64, Kept>,
     /// Displacement box of every node this frame, or of the whole mesh only
     /// (one entry) when that is within every kept slack.
     spread: Vec<Aabb>,
@@ -246,7 +248,7 @@ impl KeptCertificates {
 
 /// One frame's view of the kept certificates, for [`super::certify::ContourCull`].
 pub struct Reuse<'a> {
-    kept: &'a HashMap<u64, Kept>,
+    kept: &'a FxHashMap<u64, Kept>,
     spread: &'a [Aabb],
     cap: f64,
     fresh: Mutex<Vec<(u64, Kept)>>,
