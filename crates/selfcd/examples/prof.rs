@@ -14,6 +14,7 @@
 //! `PROF_WAVE=1` detects on a sequence of four frames cycled (the frame
 //! plus a wave of 0.05 mean edges, wavelength 16 mean edges, phase 0.7 k:
 //! the per-frame sequence of `scripts/bench_peers.py`) instead of one;
+//! `PROF_AMPLITUDE=a` sets the wave's amplitude to `a` mean edges (0.05);
 //! `PROF_WAVE=drift` on one frame per repetition, the wave's phase moving
 //! as before and its wavelength growing 2% a frame (no frame repeats). The
 //! first detection (refit + traverse) is reported apart from the best.
@@ -84,6 +85,9 @@ fn main() {
     let frames = if wave == "1" || wave == "drift" {
         let e = mesh.mean_edge_length();
         let drift = wave == "drift";
+        let amplitude: f64 = std::env::var("PROF_AMPLITUDE")
+            .ok()
+            .map_or(0.05, |a| a.parse().unwrap());
         (0..if drift { reps } else { 4 })
             .map(|f| {
                 let ph = 0.7 * f as f64;
@@ -93,7 +97,8 @@ fn main() {
                 p.iter()
                     .map(|x| {
                         let s = |a: f64, o: f64| (k * a + ph + o).sin();
-                        *x + 0.05 * e * selfcd::DVec3::new(s(x.y, 0.0), s(x.z, 1.0), s(x.x, 2.0))
+                        let wave = selfcd::DVec3::new(s(x.y, 0.0), s(x.z, 1.0), s(x.x, 2.0));
+                        *x + amplitude * e * wave
                     })
                     .collect()
             })

@@ -46,11 +46,13 @@
 //! has moved more than half of a job's clearance the boxes are still apart
 //! (or the leaves still farther apart than the visitor's distance) and the
 //! job stops where it did, finding nothing: a traversal from the front skips
-//! it ([`Start::Front`], counted in [`Counters::front_skips`]). Clearances
-//! are kept against one set of reference positions: the caller passes the
-//! largest vertex displacement from them, and a job run now stores its
-//! clearance less twice that displacement (its bound for any later frame
-//! through the reference).
+//! it ([`Clearances::Skip`], counted in [`Counters::front_skips`]).
+//! Clearances are kept against one set of reference positions: the caller
+//! passes the largest vertex displacement from them, a job that stops where
+//! it did keeps its clearance, and a new job stores its clearance less twice
+//! that displacement (its bound for any later frame through the reference).
+//! Measuring costs about a tenth of a frame, so the caller measures only
+//! where the motion is slow enough for it to pay ([`Clearances`]).
 //!
 //! Top levels run in parallel with `rayon::join` (a front, by chunks); each
 //! task keeps its own results, counters and cull buffers, and the join order
@@ -103,12 +105,14 @@ pub trait LeafVisitor: Sync {
         self.visit(a, b, adjacent, out)
     }
 
-    /// A lower bound on the distance between triangles `a` and `b`, for a
-    /// pair whose visit found nothing: while no vertex moves more than half
-    /// of it, a visit still finds nothing (module doc, "Clearance"). 0, the
-    /// default, when the visitor knows none.
+    /// [`visit_counted`](Self::visit_counted) of triangles `a` and `b`
+    /// (not adjacent), returning, when it found nothing, a lower bound on
+    /// their distance: while no vertex moves more than half of it, a visit
+    /// still finds nothing (module doc, "Clearance"); else 0. The default
+    /// knows no bound (0).
     #[inline]
-    fn clearance(&self, _a: u32, _b: u32) -> f64 {
+    fn visit_clear(&self, a: u32, b: u32, out: &mut Vec<Self::Item>, c: &mut Counters) -> f64 {
+        self.visit_counted(a, b, false, out, c);
         0.0
     }
 }
@@ -121,12 +125,22 @@ pub enum Start<'a> {
     /// At the root, recording the front.
     RootRecording,
     /// At the jobs of a front an earlier traversal of the same hierarchy
-    /// recorded, recording the new front. With `Some(moved)`, no vertex is
-    /// farther than `moved` from the front's reference positions, and the
-    /// jobs whose clearance exceeds twice that are skipped; with `None`, the
-    /// positions become the new reference: every job runs (module doc,
-    /// "Clearance").
-    Front(&'a Front, Option<f64>),
+    /// recorded, recording the new front, with its clearances as said.
+    Front(&'a Front, Clearances),
+}
+
+/// What a traversal from a front does with clearances (module doc,
+/// "Clearance"). A front recorded from the root has none (all 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Clearances {
+    /// No vertex is farther than this from the front's reference positions:
+    /// the jobs clearer than twice that are skipped.
+    Skip(f64),
+    /// These positions become the reference: every job runs and its
+    /// clearance is measured.
+    Measure,
+    /// Every job runs, and the new front has no clearances.
+    Drop,
 }
 
 /// The jobs at which a traversal stopped, in its order (see the module doc),
@@ -274,9 +288,9 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         cull,
         visitor,
         record: !matches!(start, Start::Root),
-        moved2: match start {
-            Start::Front(_, Some(moved)) => Some(2.0 * moved * (1.0 + 1e-12)),
-            _ => None,
+        clearances: match start {
+            Start::Front(_, c) => c,
+            _ => Clearances::Drop,
         },
         unit: clear_unit(mesh),
     };
@@ -326,10 +340,8 @@ struct Ctx<'a, C, V> {
     visitor: &'a V,
     /// Keep the jobs at which the traversal stops ([`Front`]).
     record: bool,
-    /// Twice the largest vertex displacement from the front's reference
-    /// positions (None when these positions are the reference): kept jobs
-    /// clearer than this are skipped, and new clearances are stored less it.
-    moved2: Option<f64>,
+    /// What the traversal does with clearances.
+    clearances: Clearances,
     /// The unit of the front's clearances ([`clear_unit`]).
     unit: f64,
 }
@@ -453,7 +465,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             self.run(Job::Pair(a, b, siblings), None, &mut acc);
             return acc;
         }
-        match self.pair_step(a, b, siblings, &mut acc) {
+        match self.pair_step(a, b, siblings, true, &mut acc) {
             Step::Done(clear) => {
                 self.stop(Job::Pair(a, b, siblings), clear, None, &mut acc);
                 acc
@@ -477,7 +489,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         // reference). Dividing by a power of two is exact, or overflows to
         // infinity (nothing skipped), or underflows far below any kept
         // clearance (at least 1e-30 units).
-        let skip = self.moved2.map_or(f64::INFINITY, |m| m / self.unit);
+        let skip = match self.clearances {
+            Clearances::Skip(moved) => 2.0 * moved * (1.0 + 1e-12) / self.unit,
+            _ => f64::INFINITY,
+        };
         let chunk = |jobs: &Vec<Stop>| {
             let mut acc = Acc::new();
             acc.front.last.reserve(jobs.len() + jobs.len() / 8);
@@ -502,7 +517,10 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                 }
                 // A job that stops where it did keeps its clearance (a bound
                 // at the reference positions, which have not changed).
-                let kept = self.moved2.map(|_| stop.clear);
+                let kept = match self.clearances {
+                    Clearances::Skip(_) => Some(stop.clear),
+                    _ => None,
+                };
                 self.run(stop.job, kept, &mut acc);
             }
             acc
@@ -533,14 +551,16 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                         stack.extend([Job::Pair(l, r, true), Job::Node(r), Job::Node(l)]);
                     }
                 }
-                Job::Pair(a, b, siblings) => match self.pair_step(a, b, siblings, acc) {
-                    Step::Split(keep, [x, y]) => {
-                        self.prefetch_node(y);
-                        self.prefetch_node(x);
-                        stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
+                Job::Pair(a, b, siblings) => {
+                    match self.pair_step(a, b, siblings, kept.is_none(), acc) {
+                        Step::Split(keep, [x, y]) => {
+                            self.prefetch_node(y);
+                            self.prefetch_node(x);
+                            stack.extend([Job::Pair(keep, y, false), Job::Pair(keep, x, false)]);
+                        }
+                        Step::Done(clear) => self.stop(job, clear, kept, acc),
                     }
-                    Step::Done(clear) => self.stop(job, clear, kept, acc),
-                },
+                }
             }
         }
         acc.stack = stack;
@@ -554,12 +574,14 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         if !self.record {
             return;
         }
-        let stop = match kept {
-            Some(clear) => Stop { job, clear },
-            None => {
-                let clear = self.clearance(clear) - self.moved2.unwrap_or(0.0);
+        let stop = match (kept, self.clearances) {
+            (Some(clear), _) => Stop { job, clear },
+            (None, Clearances::Skip(moved)) => {
+                let clear = self.clearance(clear) - 2.0 * moved * (1.0 + 1e-12);
                 Stop::new(job, clear, self.unit)
             }
+            (None, Clearances::Measure) => Stop::new(job, self.clearance(clear), self.unit),
+            (None, Clearances::Drop) => Stop { job, clear: 0.0 },
         };
         acc.front.last.push(stop);
     }
@@ -573,7 +595,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
                 // The gap along the axis that separates them most, beyond the traversal's.
                 (x.min - y.max).max(y.min - x.max).max_element() - self.gap
             }
-            Clear::Leaves(a, b) => self.visitor.clearance(a, b),
+            Clear::Leaves(c) => c,
         }
     }
 
@@ -597,9 +619,16 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     }
 
     /// The primitive test of two leaves (kept out of the descent's hot
-    /// loop); returns what their clearance is measured from.
+    /// loop); returns their clearance when `measure` and recording with
+    /// clearances.
     #[inline(never)]
-    fn leaf_pair(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) -> Clear {
+    fn leaf_pair(
+        &self,
+        a: u32,
+        b: u32,
+        measure: bool,
+        acc: &mut Acc<V::Item, C::Scratch>,
+    ) -> Clear {
         let adjacent = self.mesh.share_vertex(a as usize, b as usize);
         if adjacent {
             acc.counters.adjacent_skips += 1;
@@ -609,15 +638,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
         acc.counters.primitive_tests += 1;
         let (lo, hi) = (a.min(b), a.max(b));
-        let found = acc.items.last.len();
-        let items = &mut acc.items.last;
-        self.visitor
-            .visit_counted(lo, hi, adjacent, items, &mut acc.counters);
-        if !adjacent && items.len() == found {
-            Clear::Leaves(lo, hi)
-        } else {
-            Clear::None
+        let (items, c) = (&mut acc.items.last, &mut acc.counters);
+        if !(measure && self.record) || self.clearances == Clearances::Drop || adjacent {
+            self.visitor.visit_counted(lo, hi, adjacent, items, c);
+            return Clear::None;
         }
+        Clear::Leaves(self.visitor.visit_clear(lo, hi, items, c))
     }
 
     /// The leaf pairs of small node `n`, each tested as the descent tests
@@ -667,7 +693,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     #[inline]
     fn leaf_boxes(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
         if self.may_meet(a, b, acc) {
-            self.leaf_pair(a, b, acc);
+            self.leaf_pair(a, b, false, acc);
         }
     }
 
@@ -689,13 +715,16 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     }
 
     /// One step of pair(a, b): tests and culls, and returns the pairs to
-    /// descend into, or that the pair is done with its clearance.
+    /// descend into, or that the pair is done with its clearance (two
+    /// leaves' measured only when `measure`: a front job that stops where it
+    /// did keeps its own).
     #[inline]
     fn pair_step(
         &self,
         a: u32,
         b: u32,
         siblings: bool,
+        measure: bool,
         acc: &mut Acc<V::Item, C::Scratch>,
     ) -> Step {
         let bvh = self.bvh;
@@ -705,7 +734,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         let (ba, bb) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
         let (la, lb) = (bvh.is_leaf(a), bvh.is_leaf(b));
         if la && lb {
-            return Step::Done(self.leaf_pair(a, b, acc));
+            return Step::Done(self.leaf_pair(a, b, measure, acc));
         }
         if !siblings
             && self
@@ -743,6 +772,7 @@ enum Clear {
     None,
     /// Boxes found apart.
     Boxes(u32, u32),
-    /// Leaves whose visit found nothing.
-    Leaves(u32, u32),
+    /// Leaves whose visit found nothing, and their clearance (measured
+    /// only where the traversal measures).
+    Leaves(f64),
 }

@@ -5,7 +5,7 @@ use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
 use crate::bvh::kept::{KeptCertificates, Reuse};
 use crate::bvh::traverse::{
-    self_traverse, self_traverse_from, traverse_from, Front, Start, TraverseOptions,
+    self_traverse, self_traverse_from, traverse_from, Clearances, Front, Start, TraverseOptions,
 };
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
@@ -35,13 +35,14 @@ pub struct BvhDetector {
 }
 
 /// The intersection traversal's front, its length when last recorded from
-/// the root, and the reference positions its clearances are kept against
-/// ([`crate::bvh::traverse`], "Clearance").
+/// the root, the reference positions its clearances are kept against
+/// ([`crate::bvh::traverse`], "Clearance"), and whether they were measured.
 #[derive(Debug)]
 struct KeptFront {
     front: Front,
     from_root: usize,
     reference: Vec<DVec3>,
+    measured: bool,
 }
 
 /// The front is recorded again from the root once it has grown past this
@@ -50,21 +51,43 @@ struct KeptFront {
 /// more than the jobs above it.
 const FRONT_GROWTH: f64 = 1.25;
 
-/// The front's reference positions are reset once a vertex has moved this
-/// many mean edge lengths from them: past it few jobs are clear enough to
-/// be skipped, and the clearances of the jobs run shrink by twice the move.
-const FRONT_REBASE: f64 = 0.25;
+/// Clearances pay while no vertex has moved more than this many mean edge
+/// lengths from the front's reference positions: beyond, few jobs are clear
+/// enough to be skipped, and the clearances of the jobs run shrink by twice
+/// the move.
+const FRONT_MOVE: f64 = 0.25;
+
+/// Clearances are measured (about a fifth of a frame on the dress) only
+/// after a frame that moved no vertex more than this many mean edge lengths:
+/// a sequence moving that slowly stays under [`FRONT_MOVE`] for the frames
+/// that pay it back. (Measured on the dress, one thread, `PROF_WAVE=drift`:
+/// at 0.15 mean edges of wave a frame, measuring every third frame cost 6%
+/// more than never; at 0.05, measuring once paid 2-8%; the 4-frame cycle of
+/// the peer benchmark moves about 0.06 a frame.)
+const MEASURE_MOVE: f64 = 0.08;
 
 impl KeptFront {
     /// Where this frame's traversal starts: the kept front while it has not
-    /// grown too much, with the vertices' largest displacement from its
-    /// reference (None: `positions` become the reference), else the root
-    /// (recording).
-    fn start<'a>(kept: Option<&'a KeptFront>, positions: &[DVec3], rebase: f64) -> Start<'a> {
+    /// grown too much, else the root (recording). From the front, with
+    /// measured clearances while no vertex is farther than [`FRONT_MOVE`]
+    /// from the reference ([`Clearances::Skip`]); else the positions become
+    /// the reference, and clearances are measured when the mesh moved less
+    /// than [`MEASURE_MOVE`] since the last frame (then they will pay), else
+    /// dropped (faster motion pays for no measuring). `edge`: the mesh's
+    /// mean edge length.
+    fn start<'a>(kept: Option<&'a KeptFront>, positions: &[DVec3], edge: f64) -> Start<'a> {
         match kept {
             Some(k) if k.front.len() as f64 <= FRONT_GROWTH * k.from_root as f64 => {
                 let moved = largest_move(&k.reference, positions);
-                Start::Front(&k.front, (moved <= rebase).then_some(moved))
+                let c = if k.measured && moved <= FRONT_MOVE * edge {
+                    Clearances::Skip(moved)
+                } else if !k.measured && moved <= MEASURE_MOVE * edge {
+                    // (The reference is the last frame's positions.)
+                    Clearances::Measure
+                } else {
+                    Clearances::Drop
+                };
+                Start::Front(&k.front, c)
             }
             _ => Start::RootRecording,
         }
@@ -277,13 +300,15 @@ impl BvhDetector {
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let start = if sequence {
-            let rebase = FRONT_REBASE * self.mesh.mean_edge_length();
-            KeptFront::start(self.front.as_ref(), positions, rebase)
+            KeptFront::start(self.front.as_ref(), positions, self.mesh.mean_edge_length())
         } else {
             Start::Root
         };
         let from_kept = matches!(start, Start::Front(..));
-        let rebased = !matches!(start, Start::Front(_, Some(_)));
+        let clearances = match start {
+            Start::Front(_, c) => c,
+            _ => Clearances::Drop,
+        };
         let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
@@ -297,7 +322,7 @@ impl BvhDetector {
                 Some(k) => (front.len(), k.reference),
                 None => (front.len(), Vec::new()),
             };
-            if rebased {
+            if !matches!(clearances, Clearances::Skip(_)) {
                 reference.clear();
                 reference.extend_from_slice(positions);
             }
@@ -305,6 +330,7 @@ impl BvhDetector {
                 front,
                 from_root,
                 reference,
+                measured: clearances != Clearances::Drop,
             });
         }
         det.stats.refit_time = refit_time;

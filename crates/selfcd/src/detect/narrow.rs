@@ -38,20 +38,46 @@ impl LeafVisitor for Intersect<'_> {
     fn visit_counted(&self, a: u32, b: u32, _adj: bool, out: &mut Vec<[u32; 2]>, c: &mut Counters) {
         let ta = self.mesh.corners(self.positions, a as usize);
         let tb = self.mesh.corners(self.positions, b as usize);
-        match triangles_intersect_filtered(&ta, &tb) {
-            Decision::FilterApart => c.filter_decisions += 1,
-            d if d.intersect() => out.push([a, b]),
-            _ => {}
-        }
+        self.decide(a, b, (&ta, &tb), out, c);
     }
 
-    /// How far one triangle lies on one side of the other's plane
-    /// ([`plane_clearance`]).
+    /// The visit, then how far one triangle lies on one side of the other's
+    /// plane ([`plane_clearance`]) when they do not meet.
     #[inline]
-    fn clearance(&self, a: u32, b: u32) -> f64 {
+    fn visit_clear(&self, a: u32, b: u32, out: &mut Vec<[u32; 2]>, c: &mut Counters) -> f64 {
         let ta = self.mesh.corners(self.positions, a as usize);
         let tb = self.mesh.corners(self.positions, b as usize);
-        plane_clearance(&ta, &tb)
+        if self.decide(a, b, (&ta, &tb), out, c) {
+            0.0
+        } else {
+            plane_clearance(&ta, &tb)
+        }
+    }
+}
+
+impl Intersect<'_> {
+    /// The filtered exact test of triangles `a` and `b` at corners `t`,
+    /// counted; true (and the pair added to `out`) when they meet.
+    #[inline]
+    fn decide(
+        &self,
+        a: u32,
+        b: u32,
+        t: (&[DVec3; 3], &[DVec3; 3]),
+        out: &mut Vec<[u32; 2]>,
+        c: &mut Counters,
+    ) -> bool {
+        match triangles_intersect_filtered(t.0, t.1) {
+            Decision::FilterApart => {
+                c.filter_decisions += 1;
+                false
+            }
+            d if d.intersect() => {
+                out.push([a, b]);
+                true
+            }
+            _ => false,
+        }
     }
 }
 

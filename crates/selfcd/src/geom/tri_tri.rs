@@ -53,41 +53,38 @@ pub fn triangles_intersect_filtered(a: &[DVec3; 3], b: &[DVec3; 3]) -> Decision 
 /// is a convex combination of its corners, so while no corner moves more
 /// than half of it the triangles stay apart.
 ///
-/// Rounding: with `u = t1 - t0`, `v = t2 - t0`, `w = q - t0`, the computed
-/// `w . (u x v) / |u x v|` is within `20 eps |w| |u| |v| / |u x v|` of the
-/// exact distance from `q` to the plane (eps = 2^-53), plus at most
-/// `2^-1073 / |u x v|` from products that underflow; each corner's distance
-/// is taken less `1e-12 |w| |u| |v| / |u x v|` (450 times the first) and
-/// `1e-320 / |u x v|` (the second, 100 times). A plane normal under 1e-280
-/// (a triangle near 1e-140 across or smaller, or a sliver) gives 0.
+/// Rounding: with `u = t1 - t0`, `v = t2 - t0`, `w = q - t0` and `n = u x v`,
+/// the computed `w . n` is within `20 eps |w| |u| |v|` of the exact one
+/// (eps = 2^-53), plus at most 2^-1073 from products that underflow; each
+/// corner's is taken less `1e-12 W |u| |v|` with `W >= |w|` (450 times the
+/// first) and 1e-320 (the second, 100 times), and the least divided by
+/// `|n|` (relative rounding, taken off with the `1 - 1e-12`). A plane
+/// normal under 1e-280 (a triangle near 1e-140 across or smaller, or a
+/// sliver) gives 0.
 pub fn plane_clearance(a: &[DVec3; 3], b: &[DVec3; 3]) -> f64 {
     one_side_clearance(a, b).max(one_side_clearance(b, a))
 }
 
 /// How far all corners of `p` lie on one side of the plane of `t` (0 if not).
+#[inline]
 fn one_side_clearance(t: &[DVec3; 3], p: &[DVec3; 3]) -> f64 {
     let (u, v) = (t[1] - t[0], t[2] - t[0]);
     let n = u.cross(v);
-    let len = n.length();
-    // The rounding of a corner's distance, per unit of |w|.
-    let per_w = 1e-12 * u.length() * v.length() / len;
-    if !(len >= 1e-280 && per_w.is_finite()) {
+    let w = p.map(|q| q - t[0]);
+    let d = w.map(|w| w.dot(n));
+    let (lo, hi) = (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]));
+    // Cheap refusal first: the corners straddle the plane.
+    if !(lo > 0.0 || hi < 0.0) {
         return 0.0;
     }
-    let underflow = 1e-320 / len;
-    let (mut above, mut below) = (f64::INFINITY, f64::INFINITY);
-    for q in p {
-        let w = *q - t[0];
-        let d = w.dot(n) / len;
-        let err = per_w * w.length() + underflow;
-        above = above.min(d - err);
-        below = below.min(-d - err);
-    }
-    // (NaN from an overflow fails both comparisons.)
-    if above > 0.0 {
-        above
-    } else if below > 0.0 {
-        below
+    let len = n.length();
+    // A bound on every |w| (the largest coordinate, times sqrt 3).
+    let far = w[0].abs().max(w[1].abs()).max(w[2].abs()).max_element() * 1.7320508075688774;
+    let err = 1e-12 * far * (u.length_squared() * v.length_squared()).sqrt() + 1e-320;
+    let least = if lo > 0.0 { lo } else { -hi } - err;
+    // (NaN from an overflow fails the comparison.)
+    if len >= 1e-280 && least > 0.0 && err.is_finite() {
+        least / len * (1.0 - 1e-12)
     } else {
         0.0
     }
