@@ -387,6 +387,12 @@ impl Mesh {
         *(self.mean_edge).get_or_init(|| mean_length(edges.map(|e| edge_length(&self.rest, *e))))
     }
 
+    /// Mean edge length at `positions` (one pass over the edges; the rest's
+    /// is [`mean_edge_length`](Self::mean_edge_length), computed once).
+    pub fn mean_edge_length_at(&self, positions: &[DVec3]) -> f64 {
+        mean_length(self.topo.edges.iter().map(|e| edge_length(positions, *e)))
+    }
+
     /// True when `positions` are the rest shape: the rest slice itself (known
     /// without reading it) or an equal one.
     pub fn is_rest(&self, positions: &[DVec3]) -> bool {
@@ -558,8 +564,8 @@ impl Mesh {
 /// naive one wherever that does not overflow or underflow (so the naive one
 /// is used there, the cheaper). Saturated at
 /// `f64::MAX` when the length exceeds it.
-fn edge_length(rest: &[DVec3], e: [u32; 2]) -> f64 {
-    let (a, b) = (rest[e[0] as usize], rest[e[1] as usize]);
+fn edge_length(x: &[DVec3], e: [u32; 2]) -> f64 {
+    let (a, b) = (x[e[0] as usize], x[e[1] as usize]);
     let (d, twice) = match a - b {
         d if d.is_finite() => (d, false),
         _ => (0.5 * a - 0.5 * b, true), // the difference overflowed: halve first

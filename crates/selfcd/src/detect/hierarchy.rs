@@ -34,13 +34,15 @@ pub struct BvhDetector {
     front: Option<KeptFront>,
 }
 
-/// The intersection traversal's front, its length when last recorded from
-/// the root, the reference positions its clearances are kept against
-/// ([`crate::bvh::traverse`], "Clearance"), and whether they were measured.
+/// The intersection traversal's front, its length and the mean edge length
+/// of the positions when last recorded from the root, the reference
+/// positions its clearances are kept against ([`crate::bvh::traverse`],
+/// "Clearance"), and whether they were measured.
 #[derive(Debug)]
 struct KeptFront {
     front: Front,
     from_root: usize,
+    edge: f64,
     reference: Vec<DVec3>,
     measured: bool,
 }
@@ -73,12 +75,13 @@ impl KeptFront {
     /// from the reference ([`Clearances::Skip`]); else the positions become
     /// the reference, and clearances are measured when the mesh moved less
     /// than [`MEASURE_MOVE`] since the last frame (then they will pay), else
-    /// dropped (faster motion pays for no measuring). `edge`: the mesh's
-    /// mean edge length.
-    fn start<'a>(kept: Option<&'a KeptFront>, positions: &[DVec3], edge: f64) -> Start<'a> {
+    /// dropped (faster motion pays for no measuring). Lengths in mean edges
+    /// of the positions the front was recorded at (clearances scale with
+    /// the shape, which may be stretched from the rest).
+    fn start<'a>(kept: Option<&'a KeptFront>, positions: &[DVec3]) -> Start<'a> {
         match kept {
             Some(k) if k.front.len() as f64 <= FRONT_GROWTH * k.from_root as f64 => {
-                let moved = largest_move(&k.reference, positions);
+                let (moved, edge) = (largest_move(&k.reference, positions), k.edge);
                 let c = if k.measured && moved <= FRONT_MOVE * edge {
                     Clearances::Skip(moved)
                 } else if !k.measured && moved <= MEASURE_MOVE * edge {
@@ -300,7 +303,7 @@ impl BvhDetector {
         self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let start = if sequence {
-            KeptFront::start(self.front.as_ref(), positions, self.mesh.mean_edge_length())
+            KeptFront::start(self.front.as_ref(), positions)
         } else {
             Start::Root
         };
@@ -317,10 +320,16 @@ impl BvhDetector {
         }
         let (mut det, front) = det?;
         if let Some(front) = front {
-            let (from_root, mut reference) = match self.front.take() {
-                Some(k) if from_kept => (k.from_root, k.reference),
-                Some(k) => (front.len(), k.reference),
-                None => (front.len(), Vec::new()),
+            let (from_root, edge, mut reference) = match self.front.take() {
+                Some(k) if from_kept => (k.from_root, k.edge, k.reference),
+                k => {
+                    let edge = self.mesh.mean_edge_length_at(positions);
+                    (
+                        front.len(),
+                        edge,
+                        k.map(|k| k.reference).unwrap_or_default(),
+                    )
+                }
             };
             if !matches!(clearances, Clearances::Skip(_)) {
                 reference.clear();
@@ -329,6 +338,7 @@ impl BvhDetector {
             self.front = Some(KeptFront {
                 front,
                 from_root,
+                edge,
                 reference,
                 measured: clearances != Clearances::Drop,
             });
