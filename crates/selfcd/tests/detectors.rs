@@ -508,6 +508,8 @@ fn animation(mesh: &Mesh, target: &[DVec3], steps: usize, wobble: usize) -> Vec<
 /// kept paths are run).
 #[test]
 fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
+    use selfcd::detect::hierarchy::BvhDetector;
+    use selfcd::Detector;
     let (mut reused, mut fresh, mut skipped) = (0, 0, 0);
     for (mname, mesh) in meshes().into_iter().skip(1).take(2) {
         for (sname, shape) in shapes() {
@@ -530,6 +532,14 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                     front_jobs > 0,
                     "{m} {mname}/{sname}: no frame started from a front"
                 );
+            }
+            // With slabs fitted every frame (their gaps are clearances too).
+            let mut d = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
+            d.force_slabs(Some(true));
+            for (k, p) in frames.iter().enumerate() {
+                let got = d.detect(p).unwrap().pairs;
+                let want = detect(&mesh, Method::Brute, p, 0.0).pairs;
+                assert_eq!(got, want, "slabs on, {mname}/{sname} frame {k}");
             }
         }
     }

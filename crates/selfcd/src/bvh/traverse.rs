@@ -593,7 +593,8 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             Clear::Boxes(a, b) => {
                 let (x, y) = (&self.bvh.boxes[a as usize], &self.bvh.boxes[b as usize]);
                 // The gap along the axis that separates them most, beyond the traversal's.
-                (x.min - y.max).max(y.min - x.max).max_element() - self.gap
+                let boxes = (x.min - y.max).max(y.min - x.max).max_element() - self.gap;
+                boxes.max(self.slab_clearance(a, b).unwrap_or(0.0))
             }
             Clear::Leaves(c) => c,
         }
@@ -702,16 +703,24 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     /// [`SLAB_AXES_COS`]. (Trying `b`'s axis too cost more than it culled.)
     #[inline]
     fn slabs_apart(&self, a: u32, b: u32) -> bool {
-        let Some(gap) = self.slab_gap else {
-            return false;
-        };
+        self.slab_clearance(a, b).is_some_and(|c| c > 0.0)
+    }
+
+    /// How much the nodes' slabs along `a`'s cone axis are farther apart
+    /// than the slab gap ([`slabs_apart`](Self::slabs_apart) when
+    /// positive), or None where slabs are not compared. The axis is a unit
+    /// vector up to rounding, so the gap bounds the distance between the
+    /// nodes (a projection moves no point farther than it is from another).
+    #[inline]
+    fn slab_clearance(&self, a: u32, b: u32) -> Option<f64> {
+        let gap = self.slab_gap?;
         let (bvh, (a, b)) = (self.bvh, (a as usize, b as usize));
         let (ua, ub) = (bvh.cones[a].axis, bvh.cones[b].axis);
         if ua.dot(ub).abs() < SLAB_AXES_COS {
-            return false;
+            return None;
         }
-        let (sa, sb) = (&bvh.slabs[a], &bvh.slabs[b]);
-        sa.apart(&sb.carry(ub, &bvh.boxes[b], ua), gap)
+        let (sa, sb) = (&bvh.slabs[a], bvh.slabs[b].carry(ub, &bvh.boxes[b], ua));
+        Some((sb.lo - sa.hi).max(sa.lo - sb.hi) - gap)
     }
 
     /// One step of pair(a, b): tests and culls, and returns the pairs to
@@ -770,7 +779,7 @@ enum Step {
 enum Clear {
     /// Nothing known: 0.
     None,
-    /// Boxes found apart.
+    /// Boxes (or slabs) found apart.
     Boxes(u32, u32),
     /// Leaves whose visit found nothing, and their clearance (measured
     /// only where the traversal measures).
