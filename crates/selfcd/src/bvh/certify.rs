@@ -341,13 +341,19 @@ impl Cull for ContourCull<'_> {
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        if !self.cones.adjacent_positive(a, b) {
+        if !self.cones.patches.may_touch(a, b) {
             return false;
         }
+        // A kept certificate first: only adjacent nodes have one (the
+        // topology is fixed), and its check puts both cones within 90
+        // degrees of one axis, which `adjacent_positive` would ask again.
         if self.reuse.is_some_and(|r| self.reused(r, a, b)) {
             c.certificates_reused += 1;
             c.pair_culls += 1;
             return true;
+        }
+        if !self.cones.adjacent_positive(a, b) {
+            return false;
         }
         let (ca, cb) = (&self.bvh.cones[a as usize], &self.bvh.cones[b as usize]);
         c.contour_tests += 1;
