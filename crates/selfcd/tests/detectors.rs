@@ -228,13 +228,7 @@ fn rigid_motions_and_scales_do_not_change_the_answer() {
         check(&format!("rigid{k}"), &mesh, &moved);
     }
     for s in [1e-3, 1e3] {
-        let scaled_mesh = Arc::new(
-            Mesh::new(
-                scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
-                mesh.triangles().to_vec(),
-            )
-            .unwrap(),
-        );
+        let scaled_mesh = scaled_mesh(&mesh, s);
         let p = scale(&base, s);
         check(&format!("scale{s}"), &scaled_mesh, &p);
         // Scaling by a power of two is exact, so the contacts are the same ones.
@@ -433,6 +427,12 @@ fn bad_positions_are_errors_not_panics() {
     .is_err());
 }
 
+/// `mesh` with its rest shape scaled by `s`.
+fn scaled_mesh(mesh: &Mesh, s: f64) -> Arc<Mesh> {
+    let rest = scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect();
+    Arc::new(Mesh::new(rest, mesh.triangles().to_vec()).unwrap())
+}
+
 #[test]
 fn extreme_scales_give_the_same_pairs() {
     // Powers of two are exact, so every scale must give the unit answer; the
@@ -452,13 +452,7 @@ fn extreme_scales_give_the_same_pairs() {
     assert!(near.len() > 100);
     for e in [-1000, -900, -360, 360, 1000] {
         let s = 2f64.powi(e);
-        let scaled_mesh = Arc::new(
-            Mesh::new(
-                scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
-                mesh.triangles().to_vec(),
-            )
-            .unwrap(),
-        );
+        let scaled_mesh = scaled_mesh(&mesh, s);
         let p = scale(&base, s);
         for m in [Method::Brute, Method::Bvh, Method::BvhConesContour] {
             assert_eq!(detect(&scaled_mesh, m, &p, 0.0).pairs, want, "{m} at 2^{e}");
@@ -567,14 +561,12 @@ fn kept_sequences_at_extreme_scales_give_the_unit_pairs() {
             .collect();
         for e in [-1000, -300, 300, 1000] {
             let s = 2f64.powi(e);
-            let scaled = Arc::new(
-                Mesh::new(
-                    scale(mesh.rest(), s).iter().map(|p| p.to_array()).collect(),
-                    mesh.triangles().to_vec(),
-                )
-                .unwrap(),
-            );
-            let mut d = new_detector(scaled, Method::BvhConesContour, &Default::default()).unwrap();
+            let mut d = new_detector(
+                scaled_mesh(&mesh, s),
+                Method::BvhConesContour,
+                &Default::default(),
+            )
+            .unwrap();
             let mut skipped = 0;
             for (k, p) in frames.iter().enumerate() {
                 let got = d.detect(&scale(p, s)).unwrap();
