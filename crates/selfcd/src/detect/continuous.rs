@@ -24,7 +24,7 @@ use crate::bvh::topdown::{self, Shape};
 use crate::bvh::traverse::{traverse, LeafVisitor};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{swept_planes_apart, time_of_impact};
+use crate::geom::ccd::time_of_impact;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -85,19 +85,7 @@ impl LeafVisitor for Continuous<'_> {
     type Item = Impact;
     const SKIP_ADJACENT: bool = false;
 
-    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Impact>) {
-        if !adjacent {
-            let swept = |t: u32| {
-                let (c0, c1) = (
-                    self.mesh.corners(self.x0, t as usize),
-                    self.mesh.corners(self.x1, t as usize),
-                );
-                [c0[0], c0[1], c0[2], c1[0], c1[1], c1[2]]
-            };
-            if swept_planes_apart(&swept(a), &swept(b), self.thickness) {
-                return; // no element pair of the two comes within the thickness
-            }
-        }
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Impact>) {
         for_each_owned_pair(self.mesh, a, b, |pair| {
             let pair = pair.canonical();
             if let Some(toi) = element_toi(self.mesh, self.x0, self.x1, pair, self.thickness) {

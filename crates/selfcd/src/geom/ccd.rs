@@ -195,42 +195,6 @@ fn out_of_range(m: f64) -> bool {
     m != 0.0 && m.is_finite() && exponent(m).abs() > SAFE_EXPONENT
 }
 
-/// Do triangles `a` and `b`, each moving linearly from its first three
-/// corners to its last three, stay more than `thickness` apart along the
-/// normal of either at the start of the step? Every point of a moving
-/// triangle lies, at every time of the step, in the hull of its six
-/// corners, so when the two hulls' projections on a unit axis are more
-/// than `thickness` apart, no point of one comes within `thickness` of the
-/// other. A cheap pre-cull of a triangle pair before its element pairs'
-/// times of impact (stacked layers of cloth moving less than their gap).
-/// Rounding: the projections are taken less `1e-9` of the largest
-/// coordinate magnitude (far above their error; the axis is unit up to
-/// 1e-15); degenerate normals and non-finite values decide nothing.
-pub fn swept_planes_apart(a: &[DVec3; 6], b: &[DVec3; 6], thickness: f64) -> bool {
-    let size = a
-        .iter()
-        .chain(b)
-        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
-    let margin = thickness + 1e-9 * size;
-    let apart = |t: &[DVec3; 6], o: &[DVec3; 6]| {
-        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-        if n == DVec3::ZERO {
-            return false;
-        }
-        let range = |x: &[DVec3; 6]| {
-            x.iter()
-                .map(|p| n.dot(*p))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
-                    (lo.min(d), hi.max(d))
-                })
-        };
-        let ((tlo, thi), (olo, ohi)) = (range(t), range(o));
-        // (NaN fails both comparisons.)
-        olo - thi > margin || tlo - ohi > margin
-    };
-    apart(a, b) || apart(b, a)
-}
-
 /// Moves `points` and `thickness` by the power of two `2^k` that puts the
 /// points' largest coordinate magnitude in [1, 2) when it lies outside
 /// [2^-200, 2^201): the distances of this module and [`super::distance`]
@@ -352,76 +316,6 @@ fn normalized(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Two triangles said to stay apart along a normal do stay farther apart
-    /// than the thickness at every sampled time of the step, at every scale;
-    /// and the test says so often on layers moving less than their gap.
-    #[test]
-    fn swept_planes_apart_is_conservative() {
-        use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
-        let mut rng = crate::scene::SplitMix::new(23);
-        let mut r = || 2.0 * rng.unit() - 1.0;
-        let distance = |a: &[DVec3; 3], b: &[DVec3; 3]| {
-            let mut d2 = f64::INFINITY;
-            for (p, t) in [(a, b), (b, a)] {
-                for q in p {
-                    d2 = d2.min(point_triangle_distance2(*q, t[0], t[1], t[2]).0);
-                }
-            }
-            for i in 0..3 {
-                for j in 0..3 {
-                    let (e, f) = ([a[i], a[(i + 1) % 3]], [b[j], b[(j + 1) % 3]]);
-                    d2 = d2.min(segment_segment_distance2(e[0], e[1], f[0], f[1]).0);
-                }
-            }
-            d2.sqrt()
-        };
-        let mut apart = 0;
-        for k in 0..3000 {
-            let scale = [1.0, 2f64.powi(300), 2f64.powi(-300)][k % 3];
-            let (lift, thickness) = (0.6 * r(), 0.1 * r().abs());
-            let mut v = || DVec3::new(r(), r(), 0.2 * r());
-            let a0 = [v(), v(), v()];
-            let b0 = [v(), v(), v()].map(|p| p + DVec3::Z * lift);
-            let mut step = || DVec3::new(r(), r(), r()) * 0.3;
-            let (a1, b1) = (a0.map(|p| p + step()), b0.map(|p| p + step()));
-            let six = |x: [DVec3; 3], y: [DVec3; 3]| {
-                [x[0], x[1], x[2], y[0], y[1], y[2]].map(|p| p * scale)
-            };
-            if !swept_planes_apart(&six(a0, a1), &six(b0, b1), thickness * scale) {
-                continue;
-            }
-            apart += 1;
-            for t in 0..=20 {
-                let t = t as f64 / 20.0;
-                let (a, b) = (lerp3(a0, a1, t), lerp3(b0, b1, t));
-                assert!(distance(&a, &b) > thickness, "{k} at t = {t}");
-            }
-        }
-        assert!(apart > 200, "{apart}");
-        // Underflowing normals and overflowing coordinates decide nothing.
-        let tiny = [
-            DVec3::ZERO,
-            DVec3::X,
-            DVec3::Y,
-            DVec3::ZERO,
-            DVec3::X,
-            DVec3::Y,
-        ]
-        .map(|p| p * 2f64.powi(-1000));
-        let high = tiny.map(|p| p + DVec3::Z * 2f64.powi(-990));
-        assert!(!swept_planes_apart(&tiny, &high, 0.0));
-        let huge = tiny.map(|p| p * 2f64.powi(2000));
-        assert!(!swept_planes_apart(
-            &huge,
-            &huge.map(|p| p + DVec3::Z * 1e300),
-            0.0
-        ));
-    }
-
-    fn lerp3(a: [DVec3; 3], b: [DVec3; 3], t: f64) -> [DVec3; 3] {
-        [0, 1, 2].map(|i| a[i].lerp(b[i], t))
-    }
     use crate::scene::SplitMix;
 
     fn v(x: f64, y: f64, z: f64) -> DVec3 {
