@@ -51,7 +51,7 @@
 //! passes the largest vertex displacement from them, a job that stops where
 //! it did keeps its clearance, and a new job stores its clearance less twice
 //! that displacement (its bound for any later frame through the reference).
-//! Measuring costs about a tenth of a frame, so the caller measures only
+//! Measuring costs about a fifth of a frame, so the caller measures only
 //! where the motion is slow enough for it to pay ([`Clearances`]).
 //!
 //! Top levels run in parallel with `rayon::join` (a front, by chunks); each
