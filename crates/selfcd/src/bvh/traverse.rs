@@ -39,9 +39,10 @@
 //! records a new one from the root when it has grown.
 //!
 //! **Clearance.** A recorded job also keeps how far apart what it holds was
-//! (its *clearance*; 0 where nothing is known): the gap between the boxes of
-//! a pair found apart, or the visitor's bound on the distance between two
-//! leaves it found nothing for ([`LeafVisitor::clearance`]). Every point of
+//! (its *clearance*; 0 where nothing is known): the gap between the boxes
+//! (or, with slabs, the slabs) of a pair found apart, or the visitor's bound
+//! on the distance between two leaves it found nothing for
+//! ([`LeafVisitor::visit_clear`]). Every point of
 //! a node moves at most as far as its farthest vertex, so while no vertex
 //! has moved more than half of a job's clearance the boxes are still apart
 //! (or the leaves still farther apart than the visitor's distance) and the
