@@ -29,6 +29,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("contour_tests", U(s.contour_tests)),
         ("contour_fails", U(s.contour_fails)),
         ("certificates_reused", U(s.certificates_reused)),
+        ("certificates_rechecked", U(s.certificates_rechecked)),
         ("slab_culls", U(s.slab_culls)),
         ("adjacent_skips", U(s.adjacent_skips)),
         ("front_jobs", U(s.front_jobs)),

@@ -116,11 +116,12 @@ fn main() {
         }
         if each {
             println!(
-                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}, self culls {}, pair culls {}, adjacent skips {}, front jobs {} (skipped {})",
+                "frame {r}: refit {:.3} ms, traverse {:.3} ms, contour tests {}, reused {}, rechecked {}, primitive tests {}, filter decisions {}, slab culls {}, node pairs {}, self culls {}, pair culls {}, adjacent skips {}, front jobs {} (skipped {})",
                 s.refit_time * 1e3,
                 s.traverse_time * 1e3,
                 s.contour_tests,
                 s.certificates_reused,
+                s.certificates_rechecked,
                 s.primitive_tests,
                 s.filter_decisions,
                 s.slab_culls,

@@ -22,6 +22,10 @@ pub struct FrameStats {
     /// Culls decided by a contour certificate kept from an earlier frame
     /// (reused work; not in `contour_tests`, which counts fresh tests).
     pub certificates_reused: u64,
+    /// Culls decided by a kept certificate whose slack the motion exceeded,
+    /// re-checked exactly on its contour's close edge pairs (cheaper than a
+    /// fresh test; not in `contour_tests`).
+    pub certificates_rechecked: u64,
     /// Node pairs with overlapping boxes found apart along a node's cone
     /// axis ([`crate::geom::Slab`]; only when the detector fits slabs).
     pub slab_culls: u64,
@@ -92,6 +96,8 @@ pub struct Counters {
     pub contour_fails: u64,
     /// See [`FrameStats::certificates_reused`].
     pub certificates_reused: u64,
+    /// See [`FrameStats::certificates_rechecked`].
+    pub certificates_rechecked: u64,
     /// See [`FrameStats::slab_culls`].
     pub slab_culls: u64,
     /// See [`FrameStats::adjacent_skips`].
@@ -115,6 +121,7 @@ impl Counters {
         self.contour_tests += o.contour_tests;
         self.contour_fails += o.contour_fails;
         self.certificates_reused += o.certificates_reused;
+        self.certificates_rechecked += o.certificates_rechecked;
         self.slab_culls += o.slab_culls;
         self.adjacent_skips += o.adjacent_skips;
         self.front_jobs += o.front_jobs;
@@ -131,6 +138,7 @@ impl Counters {
         s.contour_tests += self.contour_tests;
         s.contour_fails += self.contour_fails;
         s.certificates_reused += self.certificates_reused;
+        s.certificates_rechecked += self.certificates_rechecked;
         s.slab_culls += self.slab_culls;
         s.adjacent_skips += self.adjacent_skips;
         s.front_jobs += self.front_jobs;
@@ -147,6 +155,7 @@ impl Counters {
         s.contour_tests = self.contour_tests;
         s.contour_fails = self.contour_fails;
         s.certificates_reused = self.certificates_reused;
+        s.certificates_rechecked = self.certificates_rechecked;
         s.slab_culls = self.slab_culls;
         s.adjacent_skips = self.adjacent_skips;
         s.front_jobs = self.front_jobs;

@@ -498,13 +498,13 @@ fn animation(mesh: &Mesh, target: &[DVec3], steps: usize, wobble: usize) -> Vec<
 /// though from the third frame on the traversal starts from the front kept
 /// from the last frame (rebased while the mesh deforms, its clear jobs
 /// skipped in the wobble), and in the wobble many `bvh-cones-contour` culls
-/// reuse contour certificates kept from earlier frames (all counted, so the
-/// kept paths are run).
+/// reuse contour certificates kept from earlier frames, by their slack or
+/// re-checked on their close pairs (all counted, so the kept paths are run).
 #[test]
 fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
     use selfcd::detect::hierarchy::BvhDetector;
     use selfcd::Detector;
-    let (mut reused, mut fresh, mut skipped) = (0, 0, 0);
+    let (mut reused, mut fresh, mut skipped, mut rechecked) = (0, 0, 0, 0);
     for (mname, mesh) in meshes().into_iter().skip(1).take(2) {
         for (sname, shape) in shapes() {
             let frames = animation(&mesh, &shape.apply(mesh.rest()), 6, 10);
@@ -519,6 +519,7 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                     skipped += got.stats.front_skips;
                     if k > 6 && m == Method::BvhConesContour {
                         reused += got.stats.certificates_reused;
+                        rechecked += got.stats.certificates_rechecked;
                         fresh += got.stats.contour_tests;
                     }
                 }
@@ -538,9 +539,10 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
         }
     }
     println!(
-        "certificates reused {reused}, fresh contour tests {fresh}, front jobs skipped {skipped}"
+        "certificates reused {reused}, rechecked {rechecked}, fresh contour tests {fresh}, front jobs skipped {skipped}"
     );
     assert!(skipped > 1000, "front jobs skipped {skipped}");
+    assert!(rechecked > 100, "certificates rechecked {rechecked}");
     // 22,327 reused against 38,050 fresh tests when written, 33,705 against
     // 26,672 with the twelfth landing's slacks (deterministic: the kept
     // certificates depend on the frames only, not on threads).

@@ -29,13 +29,13 @@
 //! a certificate of an earlier frame that this frame's cones and
 //! displacement bounds show still holds.
 
-use super::kept::Reuse;
+use super::kept::{LoopPairs, Reuse};
 use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
-    loops_meet_only_where_shared, loops_meet_only_where_shared_slack, simple_ccw_loop,
-    simple_ccw_loop_slack, star_about, star_slack, swept_simple_ccw_loop, swept_star_about,
-    LoopScratch, Plane, Seg,
+    close_pairs, loop_still_simple, loops_meet_only_where_shared,
+    loops_meet_only_where_shared_slack, simple_ccw_loop, simple_ccw_loop_slack, star_about,
+    star_slack, swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -132,6 +132,24 @@ pub struct ContourCull<'a> {
     reuse: Option<&'a Reuse<'a>>,
 }
 
+/// How a kept certificate decided.
+#[derive(Debug, Clone, Copy)]
+enum Reused {
+    /// The spread is within its slack.
+    Slack,
+    /// Its contour's close pairs are still clear.
+    Rechecked,
+}
+
+impl Reused {
+    fn count(self, c: &mut Counters) {
+        match self {
+            Reused::Slack => c.certificates_reused += 1,
+            Reused::Rechecked => c.certificates_rechecked += 1,
+        }
+    }
+}
+
 /// Buffers of one task's contour tests.
 #[derive(Default)]
 pub struct ContourScratch {
@@ -202,12 +220,43 @@ impl<'a> ContourCull<'a> {
     }
 
     /// A kept certificate of node `a` (`a == b`) or of the union of `a` and
-    /// `b` that still holds: this frame's spread within its slack, and both
-    /// cones within 90 degrees of its axis.
-    fn reused(&self, r: &Reuse, a: u32, b: u32) -> bool {
+    /// `b` that still holds: both cones within 90 degrees of its axis, and
+    /// this frame's spread within its slack, or within its re-check's reach
+    /// with the contour's close pairs still clear ([`loop_still_simple`]).
+    fn reused(&self, r: &Reuse, a: u32, b: u32, s: &mut ContourScratch) -> Option<Reused> {
+        let (k, spread) = r.get(a, b)?;
         let cones = &self.bvh.cones;
-        r.get(a, b).is_some_and(|k| {
-            cones[a as usize].within_90_of(k.axis) && cones[b as usize].within_90_of(k.axis)
+        if !(cones[a as usize].within_90_of(k.axis) && cones[b as usize].within_90_of(k.axis)) {
+            return None;
+        }
+        if spread <= k.slack {
+            return Some(Reused::Slack);
+        }
+        let check = k.recheck.filter(|c| spread <= c.within)?;
+        let plane = Plane::new(k.axis, check.origin);
+        let mut merged = std::mem::take(&mut s.merged);
+        let contour = if a == b {
+            self.bvh.patches.contour_of(a)
+        } else {
+            // (Only glued unions kept a re-check: the same merged contour.)
+            union_disk(&self.bvh.patches, a, b, &mut merged);
+            &merged
+        };
+        project_contour(self.mesh, self.positions, contour, &plane, &mut s.segs);
+        let ok = loop_still_simple(&s.segs, r.pairs(&check));
+        s.merged = merged;
+        ok.then_some(Reused::Rechecked)
+    }
+
+    /// The contour's close pairs for a re-check of the certificate just made
+    /// from its projection in `segs` on `plane`.
+    fn loop_pairs(&self, r: &Reuse, plane: &Plane, s: &mut ContourScratch) -> Option<LoopPairs> {
+        let mut pairs = Vec::new();
+        let extent = close_pairs(&s.segs, r.cap(), &mut s.loops, &mut pairs)?;
+        Some(LoopPairs {
+            origin: plane.origin(),
+            pairs,
+            extent,
         })
     }
 
@@ -228,7 +277,8 @@ impl<'a> ContourCull<'a> {
             &mut s.segs,
             &mut s.loops,
         );
-        r.record((a, b), axis, slack)
+        let pairs = slack.and_then(|_| self.loop_pairs(r, plane, s));
+        r.record((a, b), axis, slack, pairs)
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
@@ -277,7 +327,7 @@ impl<'a> ContourCull<'a> {
                 let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
                 Some(sa.min(sb).min(sab))
             });
-        r.record((a, b), axis, slack)
+        r.record((a, b), axis, slack, None)
     }
 }
 
@@ -329,10 +379,12 @@ impl Cull for ContourCull<'_> {
                 self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
             });
         };
-        if self.bvh.cones[n as usize].is_positive() && self.reused(r, n, n) {
-            c.certificates_reused += 1;
-            c.self_culls += 1;
-            return true;
+        if self.bvh.cones[n as usize].is_positive() {
+            if let Some(how) = self.reused(r, n, n, s) {
+                how.count(c);
+                c.self_culls += 1;
+                return true;
+            }
         }
         disk_certified(self.bvh, n, c, |contour, plane| {
             let axis = self.bvh.cones[n as usize].axis;
@@ -347,8 +399,8 @@ impl Cull for ContourCull<'_> {
         // A kept certificate first: only adjacent nodes have one (the
         // topology is fixed), and its check puts both cones within 90
         // degrees of one axis, which `adjacent_positive` would ask again.
-        if self.reuse.is_some_and(|r| self.reused(r, a, b)) {
-            c.certificates_reused += 1;
+        if let Some(how) = self.reuse.and_then(|r| self.reused(r, a, b, s)) {
+            how.count(c);
             c.pair_culls += 1;
             return true;
         }

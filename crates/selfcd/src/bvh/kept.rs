@@ -37,6 +37,21 @@
 //! and per node. Certificates made in such a frame store their slack less the
 //! whole mesh's spread, which is larger than their own, so they hold for less.
 //!
+//! **Re-check.** A slack bounds independent moves of every contour vertex,
+//! so it is small (about a fiftieth of an edge on a crumpled sheet), and a
+//! smooth motion of a tenth of an edge exceeds it while the projected loop
+//! stays simple (99-99.8% of the refused certificates on the peer
+//! benchmark's wave, BENCHMARKS.md). So a certificate whose contour was one
+//! loop also keeps the plane it was projected on and the contour's edge
+//! pairs that were closer than twice the cap ([`close_pairs`](crate::geom::loop2d::close_pairs)).
+//! While the spread (this frame's plus the one at certification) stays under
+//! the cap, no other pair can have met, so projecting the contour again and
+//! re-testing those pairs exactly, with the signed area, decides whether the
+//! loop is still simple and counter-clockwise
+//! ([`loop_still_simple`](crate::geom::loop2d::loop_still_simple)): the
+//! theorem's conditions, at the cost of one pass over the contour and its
+//! close pairs, without a fresh test's cycle walk and sweep.
+//!
 //! The reference is reset (and every certificate dropped) when the whole
 //! mesh's displacement spread exceeds [`RESET`] times the loop test's cap on
 //! its slacks: past it few certificates can still hold. When that happens two frames running (the
@@ -61,13 +76,63 @@ pub const RESET: f64 = 4.0;
 const PAR_MIN: usize = 1 << 14;
 
 /// A kept certificate: the projection axis and how far the vertices may
-/// still move from the reference (see the module doc).
+/// still move from the reference (see the module doc), and what re-checks
+/// it exactly once they moved farther ([`Recheck`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Kept {
     /// Unit axis the patch is a height field along.
     pub axis: DVec3,
     /// The slack left once the displacement spread at certification is taken off.
     pub slack: f64,
+    /// The exact re-check, where the contour was one loop.
+    pub recheck: Option<Recheck>,
+}
+
+/// What re-checks a certificate whose slack the spread exceeds (module doc,
+/// "Re-check"): the origin of its projection plane, its contour's edge
+/// pairs that were closer than twice the cap ([`close_pairs`](crate::geom::loop2d::close_pairs)),
+/// and the spread below which no other pair can have met (the cap less the
+/// spread at certification and the rounding margin).
+#[derive(Debug, Clone, Copy)]
+pub struct Recheck {
+    /// Origin of the projection plane (its axis is the certificate's).
+    pub origin: DVec3,
+    /// The close pairs: `pairs[start..start + len]` of the store.
+    pub start: u32,
+    /// Number of close pairs.
+    pub len: u32,
+    /// The spread up to which the close pairs decide.
+    pub within: f64,
+}
+
+/// A fresh certificate's re-check data before it is stored.
+#[derive(Debug, Clone)]
+struct FreshRecheck {
+    origin: DVec3,
+    pairs: Vec<[u32; 2]>,
+    within: f64,
+}
+
+/// What a fresh certificate offers a re-check: the origin of its plane, its
+/// contour's [`close_pairs`](crate::geom::loop2d::close_pairs) within the
+/// cap, and its projected contour's extent (for the rounding margin).
+#[derive(Debug, Clone)]
+pub struct LoopPairs {
+    /// Origin of the projection plane.
+    pub origin: DVec3,
+    /// The close pairs (ids into the contour's edges).
+    pub pairs: Vec<[u32; 2]>,
+    /// Extent of the projected contour.
+    pub extent: f64,
+}
+
+impl Kept {
+    /// How far the spread may grow with the certificate still deciding
+    /// (by its slack, or by its re-check).
+    fn reach(&self) -> f64 {
+        self.slack
+            .max(self.recheck.map_or(f64::NEG_INFINITY, |r| r.within))
+    }
 }
 
 /// The certificates of one hierarchy, with the reference they are kept against.
@@ -78,6 +143,9 @@ pub struct KeptCertificates {
     /// (Fx hashing: the traversal looks up every culled job every frame, and
     /// the keys are node ids, not input an attacker chooses.)
     kept: FxHashMap<u64, Kept>,
+    /// The close pairs of every kept re-check ([`Recheck`]); cleared with the
+    /// certificates (entries of replaced certificates stay until then).
+    pairs: Vec<[u32; 2]>,
     /// Displacement box of every node this frame, or of the whole mesh only
     /// (one entry) when that is within every kept slack.
     spread: Vec<Aabb>,
@@ -204,6 +272,7 @@ impl KeptCertificates {
         }
         Some(Reuse {
             kept: &self.kept,
+            pairs: &self.pairs,
             spread: &self.spread,
             cap: self.cap,
             fresh: Mutex::new(Vec::new()),
@@ -215,13 +284,26 @@ impl KeptCertificates {
     /// a certificate that did not hold this frame still holds in any later
     /// frame whose spread is within its slack, and one remade under a large
     /// spread keeps little (its slack less that spread).
-    pub fn keep(&mut self, fresh: Vec<(u64, Kept)>) {
-        for (key, k) in fresh {
+    pub fn keep(&mut self, fresh: Fresh) {
+        for (key, mut k, recheck) in fresh.0 {
+            k.recheck = recheck.and_then(|r| {
+                let start = u32::try_from(self.pairs.len()).ok()?;
+                let len = u32::try_from(r.pairs.len()).ok()?;
+                self.pairs.extend_from_slice(&r.pairs);
+                Some(Recheck {
+                    origin: r.origin,
+                    start,
+                    len,
+                    within: r.within,
+                })
+            });
             let kept = self.kept.entry(key).or_insert(k);
-            if k.slack > kept.slack {
+            if k.reach() > kept.reach() {
                 *kept = k;
             }
-            self.least_slack = self.least_slack.min(kept.slack);
+            if kept.slack > 0.0 {
+                self.least_slack = self.least_slack.min(kept.slack);
+            }
         }
     }
 
@@ -242,6 +324,7 @@ impl KeptCertificates {
         self.reference.clear();
         self.reference.extend_from_slice(positions);
         self.kept.clear();
+        self.pairs.clear();
         self.least_slack = f64::INFINITY;
     }
 }
@@ -249,10 +332,15 @@ impl KeptCertificates {
 /// One frame's view of the kept certificates, for [`super::certify::ContourCull`].
 pub struct Reuse<'a> {
     kept: &'a FxHashMap<u64, Kept>,
+    pairs: &'a [[u32; 2]],
     spread: &'a [Aabb],
     cap: f64,
-    fresh: Mutex<Vec<(u64, Kept)>>,
+    fresh: Mutex<Vec<(u64, Kept, Option<FreshRecheck>)>>,
 }
+
+/// The certificates a frame made, for [`KeptCertificates::keep`].
+#[derive(Debug, Default)]
+pub struct Fresh(Vec<(u64, Kept, Option<FreshRecheck>)>);
 
 impl Reuse<'_> {
     /// The cap on the loop test's slacks (see `ContourCull`).
@@ -263,7 +351,7 @@ impl Reuse<'_> {
     /// The displacement spread of node `a`, or of the union of `a` and `b`
     /// (the whole mesh's when only that was fitted), across `axis`.
     #[inline]
-    fn spread(&self, a: u32, b: u32, axis: DVec3) -> f64 {
+    pub fn spread(&self, a: u32, b: u32, axis: DVec3) -> f64 {
         match self.spread {
             [whole] => half_diagonal_across(whole, axis),
             all => half_diagonal_across(&all[a as usize].union(&all[b as usize]), axis),
@@ -271,35 +359,63 @@ impl Reuse<'_> {
     }
 
     /// The kept certificate of node `a` (`a == b`) or of the union of `a`
-    /// and `b` when this frame's spread is within its slack (the spread is
-    /// only taken where there is a certificate).
+    /// and `b`, with this frame's spread across its axis (the spread is only
+    /// taken where there is a certificate).
     #[inline]
-    pub fn get(&self, a: u32, b: u32) -> Option<Kept> {
+    pub fn get(&self, a: u32, b: u32) -> Option<(Kept, f64)> {
         let k = self.kept.get(&key(a, b))?;
-        (self.spread(a, b, k.axis) <= k.slack).then_some(*k)
+        Some((*k, self.spread(a, b, k.axis)))
+    }
+
+    /// The close pairs of a kept re-check.
+    pub fn pairs(&self, r: &Recheck) -> &[[u32; 2]] {
+        let start = r.start as usize;
+        &self.pairs[start..start + r.len as usize]
     }
 
     /// Records the certificate of node `a` (`a == b`) or of the union of
     /// `a` and `b` made this frame along `axis` with slack `slack` (None: no
-    /// certificate); returns whether there is one.
-    pub fn record(&self, (a, b): (u32, u32), axis: DVec3, slack: Option<f64>) -> bool {
+    /// certificate) and, where its contour was one loop, what re-checks it
+    /// (the pairs found within the cap); returns whether there is one.
+    pub fn record(
+        &self,
+        (a, b): (u32, u32),
+        axis: DVec3,
+        slack: Option<f64>,
+        recheck: Option<LoopPairs>,
+    ) -> bool {
         let Some(slack) = slack else {
             return false;
         };
-        let left = slack - self.spread(a, b, axis);
-        if left > 0.0 {
-            let kept = Kept { axis, slack: left };
-            self.fresh
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .push((key(a, b), kept));
+        let spread = self.spread(a, b, axis);
+        let left = slack - spread;
+        // No vertex moved `cap` or more since the pairs were found: the
+        // spread now plus the spread then below the cap, less the rounding
+        // margin of the projection (as the slacks' own).
+        let recheck = recheck.map(|r| FreshRecheck {
+            origin: r.origin,
+            pairs: r.pairs,
+            within: self.cap * (1.0 - 1e-9) - 1e-9 * r.extent - spread,
+        });
+        let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
+        if left > 0.0 || within > 0.0 {
+            let kept = Kept {
+                axis,
+                slack: left,
+                recheck: None,
+            };
+            self.fresh.lock().unwrap_or_else(|e| e.into_inner()).push((
+                key(a, b),
+                kept,
+                recheck.filter(|r| r.within > 0.0),
+            ));
         }
         true
     }
 
     /// The certificates made this frame.
-    pub fn into_fresh(self) -> Vec<(u64, Kept)> {
-        self.fresh.into_inner().unwrap_or_else(|e| e.into_inner())
+    pub fn into_fresh(self) -> Fresh {
+        Fresh(self.fresh.into_inner().unwrap_or_else(|e| e.into_inner()))
     }
 }
 

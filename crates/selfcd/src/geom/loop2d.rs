@@ -36,6 +36,11 @@ impl Plane {
         }
     }
 
+    /// The plane's origin.
+    pub fn origin(&self) -> DVec3 {
+        self.origin
+    }
+
     /// 2D coordinates of the projection of `p`.
     #[inline]
     pub fn project(&self, p: DVec3) -> [f64; 2] {
@@ -363,6 +368,59 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
     let ext2 = extent2(segs);
     let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
     (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
+}
+
+/// The pairs of edges of a loop whose boxes, grown by `pad` (>= 0) on every
+/// side, meet: every pair closer than `2 pad`, ids into `segs`, into `out`
+/// (cleared). While no vertex moves `pad` or more (any common translation
+/// removed), no other pair can meet, so re-testing these
+/// ([`loop_still_simple`]) decides whether a loop that was simple still is.
+/// Returns the loop's extent, or None (and `out` unusable) for non-finite
+/// coordinates.
+pub fn close_pairs(
+    segs: &[Seg],
+    pad: f64,
+    scratch: &mut LoopScratch,
+    out: &mut Vec<[u32; 2]>,
+) -> Option<f64> {
+    out.clear();
+    let cell = std::cell::RefCell::new(std::mem::take(out));
+    let ok = pairs_clear(
+        segs,
+        None,
+        None,
+        pad,
+        |i, j| {
+            cell.borrow_mut().push([i as u32, j as u32]);
+            true
+        },
+        scratch,
+    );
+    *out = cell.into_inner();
+    ok.then(|| extent2(segs).sqrt())
+}
+
+/// Is the loop of `segs` simple and counter-clockwise, given that it was
+/// when `pairs` were its [`close_pairs`] within `pad`, and that no vertex
+/// has moved `pad` or more since (common translation removed)? The
+/// conditions of [`simple_ccw_loop`] (one cycle: the same directed edges;
+/// positive signed area; no two edges meet but where the mesh joins them),
+/// the last on `pairs` only: exact, at the cost of one pass over the edges
+/// and the pairs (no cycle walk, no sweep).
+pub fn loop_still_simple(segs: &[Seg], pairs: &[[u32; 2]]) -> bool {
+    let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
+    let ext2 = extent2(segs);
+    let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
+    if !(ext2 >= MIN_SCALE2 && positive) {
+        return false;
+    }
+    let eps = 1e-12 * ext2;
+    pairs.iter().all(
+        |&[i, j]| match (segs.get(i as usize), segs.get(j as usize)) {
+            (Some(a), Some(b)) => edges_clear(a, b, eps),
+            _ => false,
+        },
+    )
 }
 
 /// [`simple_ccw_loop`], and when it passes, how far (at most `cap`) the
@@ -921,6 +979,49 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// Moved by less than the pad, a loop is simple and counter-clockwise by
+    /// its close pairs exactly when it is by the full test, whether the move
+    /// keeps it simple or not: U-shaped loops with slots of several widths
+    /// and zig-zag edges, jiggled by up to 0.999 of the pad (a common
+    /// translation added, which changes nothing).
+    #[test]
+    fn close_pairs_decide_a_loop_moved_less_than_the_pad() {
+        let mut rng = crate::scene::SplitMix::new(31);
+        let mut scratch = LoopScratch::default();
+        let (mut same, mut broken) = (0, 0);
+        for round in 0..400 {
+            let w = [0.002, 0.02, 0.2, 0.5][round % 4];
+            let n = 3 + round % 9;
+            // A U whose bottom is a zig-zag of `n` teeth and whose slot is `w` wide.
+            let mut p = vec![[0.0, 0.0]];
+            for k in 1..n {
+                let x = 3.0 * k as f64 / n as f64;
+                p.push([x, if k % 2 == 1 { -0.1 } else { 0.0 }]);
+            }
+            p.extend([[3.0, 0.0], [3.0, 3.0], [1.5 + w, 3.0], [1.5 + w, 1.0]]);
+            p.extend([[1.5, 1.0], [1.5, 3.0], [0.0, 3.0]]);
+            let ids: Vec<u32> = (0..p.len() as u32).collect();
+            let segs = loop_of(&p, &ids);
+            assert!(simple_ccw_loop(&segs, &mut scratch), "round {round}");
+            let pad = [0.001, 0.01, 0.1, 0.3][(round / 4) % 4];
+            let mut pairs = Vec::new();
+            assert!(close_pairs(&segs, pad, &mut scratch, &mut pairs).is_some());
+            let t = [rng.unit() * 5.0, rng.unit() * 5.0];
+            let moved: Vec<Seg> = jiggle(&segs, 0.999 * pad, &mut rng)
+                .iter()
+                .map(|s| Seg {
+                    p: s.p.map(|q| [q[0] + t[0], q[1] + t[1]]),
+                    v: s.v,
+                })
+                .collect();
+            let full = simple_ccw_loop(&moved, &mut scratch);
+            assert_eq!(loop_still_simple(&moved, &pairs), full, "round {round}");
+            same += full as u32;
+            broken += !full as u32;
+        }
+        assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
     }
 
     /// Loops moved by up to their slack (less a hair) still pass; slacks are
