@@ -72,6 +72,9 @@ use std::sync::Mutex;
 /// many times the loop test's cap.
 pub const RESET: f64 = 4.0;
 
+/// The close-pair store is compacted only past this many stale entries.
+const COMPACT_MIN: usize = 1 << 12;
+
 /// Below this many vertices the displacement pass runs on one thread.
 const PAR_MIN: usize = 1 << 14;
 
@@ -143,9 +146,11 @@ pub struct KeptCertificates {
     /// (Fx hashing: the traversal looks up every culled job every frame, and
     /// the keys are node ids, not input an attacker chooses.)
     kept: FxHashMap<u64, Kept>,
-    /// The close pairs of every kept re-check ([`Recheck`]); cleared with the
-    /// certificates (entries of replaced certificates stay until then).
+    /// The close pairs of every kept re-check ([`Recheck`]); those of
+    /// replaced certificates stay until the store is compacted ([`keep`](Self::keep)).
     pairs: Vec<[u32; 2]>,
+    /// How many of `pairs` kept certificates refer to.
+    live_pairs: usize,
     /// Displacement box of every node this frame, or of the whole mesh only
     /// (one entry) when that is within every kept slack.
     spread: Vec<Aabb>,
@@ -284,8 +289,17 @@ impl KeptCertificates {
     /// a certificate that did not hold this frame still holds in any later
     /// frame whose spread is within its slack, and one remade under a large
     /// spread keeps little (its slack less that spread).
+    /// The close pairs are stored once a certificate is kept, and the store
+    /// is compacted when more than half of it belongs to replaced ones (a
+    /// sequence that never resets its reference, as a cycling motion, would
+    /// otherwise grow it every frame).
     pub fn keep(&mut self, fresh: Fresh) {
         for (key, mut k, recheck) in fresh.0 {
+            let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
+            let reach = k.slack.max(within);
+            if self.kept.get(&key).is_some_and(|old| reach <= old.reach()) {
+                continue;
+            }
             k.recheck = recheck.and_then(|r| {
                 let start = u32::try_from(self.pairs.len()).ok()?;
                 let len = u32::try_from(r.pairs.len()).ok()?;
@@ -297,14 +311,31 @@ impl KeptCertificates {
                     within: r.within,
                 })
             });
-            let kept = self.kept.entry(key).or_insert(k);
-            if k.reach() > kept.reach() {
-                *kept = k;
+            self.live_pairs += k.recheck.map_or(0, |r| r.len as usize);
+            if let Some(old) = self.kept.insert(key, k) {
+                self.live_pairs -= old.recheck.map_or(0, |r| r.len as usize);
             }
-            if kept.slack > 0.0 {
-                self.least_slack = self.least_slack.min(kept.slack);
+            if k.slack > 0.0 {
+                self.least_slack = self.least_slack.min(k.slack);
             }
         }
+        if self.pairs.len() > 2 * self.live_pairs + COMPACT_MIN {
+            self.compact();
+        }
+    }
+
+    /// Moves the close pairs of the kept certificates to the front of the
+    /// store (in one pass over them) and drops the rest.
+    fn compact(&mut self) {
+        let mut pairs = Vec::with_capacity(self.live_pairs);
+        for k in self.kept.values_mut() {
+            if let Some(r) = k.recheck.as_mut() {
+                let (start, len) = (r.start as usize, r.len as usize);
+                r.start = pairs.len() as u32;
+                pairs.extend_from_slice(&self.pairs[start..start + len]);
+            }
+        }
+        self.pairs = pairs;
     }
 
     /// The box of every vertex's displacement from the reference, in one
@@ -325,6 +356,7 @@ impl KeptCertificates {
         self.reference.extend_from_slice(positions);
         self.kept.clear();
         self.pairs.clear();
+        self.live_pairs = 0;
         self.least_slack = f64::INFINITY;
     }
 }
@@ -423,6 +455,43 @@ impl Reuse<'_> {
 mod tests {
     use super::*;
     use crate::scene::SplitMix;
+
+    /// Remade certificates do not grow the close-pair store without bound:
+    /// it is compacted, and every kept re-check still reads its own pairs.
+    #[test]
+    fn the_close_pair_store_is_compacted() {
+        let mut store = KeptCertificates::new(1.0);
+        let fresh = |round: u32| {
+            let pairs: Vec<[u32; 2]> = (0..10).map(|i| [round, i]).collect();
+            let certificate = |key: u64| {
+                let kept = Kept {
+                    axis: DVec3::Z,
+                    slack: 0.0,
+                    recheck: None,
+                };
+                let recheck = FreshRecheck {
+                    origin: DVec3::ZERO,
+                    pairs: pairs.clone(),
+                    within: 0.5 + round as f64, // each remade one holds for more
+                };
+                (key, kept, Some(recheck))
+            };
+            Fresh(vec![certificate(1), certificate(2 << 32 | 2)])
+        };
+        for round in 0..2000 {
+            store.keep(fresh(round));
+            assert!(
+                store.pairs.len() <= 2 * 20 + COMPACT_MIN + 20,
+                "round {round}"
+            );
+        }
+        assert_eq!(store.live_pairs, 20);
+        for k in store.kept.values() {
+            let r = k.recheck.unwrap();
+            let pairs = &store.pairs[r.start as usize..(r.start + r.len) as usize];
+            assert_eq!(pairs, (0..10).map(|i| [1999, i]).collect::<Vec<_>>());
+        }
+    }
 
     /// Every point of a box is within [`half_diagonal_across`] of the line
     /// along the axis through the box centre; a corner is almost that far
