@@ -132,13 +132,6 @@ pub struct ContourCull<'a> {
     reuse: Option<&'a Reuse<'a>>,
 }
 
-/// A fresh certificate keeps a re-check only where the spread at
-/// certification is at most this share of the cap. (Measured, one thread,
-/// `PROF_WAVE=drift` at 0.15 mean edges a frame: with every fresh test
-/// finding its close pairs the crumpled grid ran 34% slower; see
-/// BENCHMARKS.md.)
-const RECHECK_SPREAD: f64 = 0.5;
-
 /// How a kept certificate decided.
 #[derive(Debug, Clone, Copy)]
 enum Reused {
@@ -284,14 +277,8 @@ impl<'a> ContourCull<'a> {
             &mut s.segs,
             &mut s.loops,
         );
-        // Close pairs pay only where the spread leaves a re-check room under
-        // the cap: past half of it the mesh is moving fast from the reference,
-        // and finding them is a second sweep every fresh test would pay for.
-        let room = r.spread(a, b, axis) <= RECHECK_SPREAD * r.cap();
-        let pairs = slack
-            .filter(|_| room)
-            .and_then(|_| self.loop_pairs(r, plane, s));
-        r.record((a, b), axis, slack, pairs)
+        // (The close pairs are found only where they may pay: `record`.)
+        r.record((a, b), axis, slack, || self.loop_pairs(r, plane, s))
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
@@ -340,7 +327,7 @@ impl<'a> ContourCull<'a> {
                 let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
                 Some(sa.min(sb).min(sab))
             });
-        r.record((a, b), axis, slack, None)
+        r.record((a, b), axis, slack, || None)
     }
 }
 

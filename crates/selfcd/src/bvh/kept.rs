@@ -75,6 +75,35 @@ pub const RESET: f64 = 4.0;
 /// The close-pair store is compacted only past this many stale entries.
 const COMPACT_MIN: usize = 1 << 12;
 
+/// Close pairs are found for a fresh certificate only where this frame's
+/// spread is at most this share of the cap: past it the mesh moves fast from
+/// the reference and a re-check would seldom be reached, while finding the
+/// pairs is a second sweep of the contour. (Measured, one thread,
+/// `PROF_WAVE=drift` at 0.15 mean edges a frame: with every fresh test
+/// finding them the crumpled grid ran 34% slower; BENCHMARKS.md.)
+const RECHECK_SPREAD: f64 = 0.5;
+
+/// `merge` of `of(x - r)` over every vertex's move from reference position
+/// `r` to `x` (`empty` for none), on the pool past [`PAR_MIN`] vertices:
+/// the one pass over the vertices of the kept certificates' whole spread and
+/// of the kept front's largest move. `merge` must be associative and
+/// commutative (a box union, a maximum), so the result is the same for any
+/// split.
+pub(crate) fn fold_moves<T: Copy + Send + Sync>(
+    reference: &[DVec3],
+    positions: &[DVec3],
+    empty: T,
+    of: impl Fn(DVec3) -> T + Sync,
+    merge: impl Fn(T, T) -> T + Sync,
+) -> T {
+    let add = |acc: T, (x, r): (&DVec3, &DVec3)| merge(acc, of(*x - *r));
+    if positions.len() < PAR_MIN {
+        return positions.iter().zip(reference).fold(empty, add);
+    }
+    let moves = positions.par_iter().zip(reference);
+    moves.fold(|| empty, add).reduce(|| empty, &merge)
+}
+
 /// Below this many vertices the displacement pass runs on one thread.
 const PAR_MIN: usize = 1 << 14;
 
@@ -131,11 +160,16 @@ pub struct LoopPairs {
 
 impl Kept {
     /// How far the spread may grow with the certificate still deciding
-    /// (by its slack, or by its re-check).
+    /// ([`reach`]).
     fn reach(&self) -> f64 {
-        self.slack
-            .max(self.recheck.map_or(f64::NEG_INFINITY, |r| r.within))
+        reach(self.slack, self.recheck.map(|r| r.within))
     }
+}
+
+/// How far the spread may grow with a certificate of slack `slack` and,
+/// where it has one, a re-check deciding up to `within`, still deciding.
+fn reach(slack: f64, within: Option<f64>) -> f64 {
+    within.map_or(slack, |w| slack.max(w))
 }
 
 /// The certificates of one hierarchy, with the reference they are kept against.
@@ -295,8 +329,7 @@ impl KeptCertificates {
     /// otherwise grow it every frame).
     pub fn keep(&mut self, fresh: Fresh) {
         for (key, mut k, recheck) in fresh.0 {
-            let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
-            let reach = k.slack.max(within);
+            let reach = reach(k.slack, recheck.as_ref().map(|r| r.within));
             if self.kept.get(&key).is_some_and(|old| reach <= old.reach()) {
                 continue;
             }
@@ -342,13 +375,10 @@ impl KeptCertificates {
     /// pass over the vertices (it holds the root's displacement box, and more
     /// where vertices lie on no triangle).
     fn whole_spread(&self, positions: &[DVec3]) -> Aabb {
-        let add = |b: Aabb, (x, r): (&DVec3, &DVec3)| b.union(&Aabb::from_points(&[*x - *r]));
-        if positions.len() < PAR_MIN {
-            return positions.iter().zip(&self.reference).fold(Aabb::EMPTY, add);
-        }
-        let d = positions.par_iter().zip(&self.reference);
-        d.fold(|| Aabb::EMPTY, add)
-            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
+        let one = |d: DVec3| Aabb::from_points(&[d]);
+        fold_moves(&self.reference, positions, Aabb::EMPTY, one, |a, b| {
+            a.union(&b)
+        })
     }
 
     fn reset(&mut self, positions: &[DVec3]) {
@@ -383,7 +413,7 @@ impl Reuse<'_> {
     /// The displacement spread of node `a`, or of the union of `a` and `b`
     /// (the whole mesh's when only that was fitted), across `axis`.
     #[inline]
-    pub fn spread(&self, a: u32, b: u32, axis: DVec3) -> f64 {
+    fn spread(&self, a: u32, b: u32, axis: DVec3) -> f64 {
         match self.spread {
             [whole] => half_diagonal_across(whole, axis),
             all => half_diagonal_across(&all[a as usize].union(&all[b as usize]), axis),
@@ -407,20 +437,22 @@ impl Reuse<'_> {
 
     /// Records the certificate of node `a` (`a == b`) or of the union of
     /// `a` and `b` made this frame along `axis` with slack `slack` (None: no
-    /// certificate) and, where its contour was one loop, what re-checks it
-    /// (the pairs found within the cap); returns whether there is one.
+    /// certificate) and, where its contour was one loop and the spread
+    /// leaves room for it ([`RECHECK_SPREAD`]), what re-checks it: the pairs
+    /// `close` finds within the cap. Returns whether there is a certificate.
     pub fn record(
         &self,
         (a, b): (u32, u32),
         axis: DVec3,
         slack: Option<f64>,
-        recheck: Option<LoopPairs>,
+        close: impl FnOnce() -> Option<LoopPairs>,
     ) -> bool {
         let Some(slack) = slack else {
             return false;
         };
         let spread = self.spread(a, b, axis);
         let left = slack - spread;
+        let recheck = (spread <= RECHECK_SPREAD * self.cap).then(close).flatten();
         // No vertex moved `cap` or more since the pairs were found: the
         // spread now plus the spread then below the cap, less the rounding
         // margin of the projection (as the slacks' own).

@@ -144,6 +144,29 @@ pub enum Clearances {
     Drop,
 }
 
+impl Start<'_> {
+    /// What the traversal does with clearances (a traversal from the root
+    /// records none).
+    pub fn clearances(&self) -> Clearances {
+        match self {
+            Start::Front(_, c) => *c,
+            _ => Clearances::Drop,
+        }
+    }
+}
+
+impl Clearances {
+    /// Twice the vertices' largest move from the reference, rounded up:
+    /// what a kept clearance must exceed to be skipped, and what a new one
+    /// is stored less (None unless skipping).
+    fn twice_moved(self) -> Option<f64> {
+        match self {
+            Clearances::Skip(moved) => Some(2.0 * moved * (1.0 + 1e-12)),
+            _ => None,
+        }
+    }
+}
+
 /// The jobs at which a traversal stopped, in its order (see the module doc),
 /// in chunks: one parallel task each, whose jobs' own front is the next
 /// front's chunk (no copy into one list). Valid for the hierarchy that
@@ -289,10 +312,7 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         cull,
         visitor,
         record: !matches!(start, Start::Root),
-        clearances: match start {
-            Start::Front(_, c) => c,
-            _ => Clearances::Drop,
-        },
+        clearances: start.clearances(),
         unit: clear_unit(mesh),
     };
     let acc = match start {
@@ -490,10 +510,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         // reference). Dividing by a power of two is exact, or overflows to
         // infinity (nothing skipped), or underflows far below any kept
         // clearance (at least 1e-30 units).
-        let skip = match self.clearances {
-            Clearances::Skip(moved) => 2.0 * moved * (1.0 + 1e-12) / self.unit,
-            _ => f64::INFINITY,
-        };
+        let skip = (self.clearances.twice_moved()).map_or(f64::INFINITY, |m| m / self.unit);
         let chunk = |jobs: &Vec<Stop>| {
             let mut acc = Acc::new();
             acc.front.last.reserve(jobs.len() + jobs.len() / 8);
@@ -577,12 +594,11 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         }
         let stop = match (kept, self.clearances) {
             (Some(clear), _) => Stop { job, clear },
-            (None, Clearances::Skip(moved)) => {
-                let clear = self.clearance(clear) - 2.0 * moved * (1.0 + 1e-12);
+            (None, Clearances::Drop) => Stop { job, clear: 0.0 },
+            (None, c) => {
+                let clear = self.clearance(clear) - c.twice_moved().unwrap_or(0.0);
                 Stop::new(job, clear, self.unit)
             }
-            (None, Clearances::Measure) => Stop::new(job, self.clearance(clear), self.unit),
-            (None, Clearances::Drop) => Stop { job, clear: 0.0 },
         };
         acc.front.last.push(stop);
     }

@@ -3,7 +3,7 @@
 use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
 use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
-use crate::bvh::kept::{KeptCertificates, Reuse};
+use crate::bvh::kept::{fold_moves, KeptCertificates, Reuse};
 use crate::bvh::traverse::{
     self_traverse, self_traverse_from, traverse_from, Clearances, Front, Start, TraverseOptions,
 };
@@ -12,7 +12,6 @@ use crate::error::Result;
 use crate::mesh::Mesh;
 use crate::stats::{Counters, FrameStats};
 use glam::DVec3;
-use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -97,29 +96,14 @@ impl KeptFront {
     }
 }
 
-/// Below this many vertices the displacement pass runs on one thread.
-const PAR_MIN: usize = 1 << 14;
-
 /// The largest distance of a vertex from its reference position, rounded
 /// up (the rounding of each difference and norm is far below 1e-12 of it).
 /// Where the largest squared distance leaves the normal range (underflow),
 /// sqrt(3) times the largest coordinate difference (exact there) bounds it.
 fn largest_move(reference: &[DVec3], positions: &[DVec3]) -> f64 {
-    let far = |(r, x): (&DVec3, &DVec3)| {
-        let d = *x - *r;
-        (d.length_squared(), d.abs().max_element())
-    };
+    let far = |d: DVec3| (d.length_squared(), d.abs().max_element());
     let max = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
-    let (d2, di) = if positions.len() < PAR_MIN {
-        reference
-            .iter()
-            .zip(positions)
-            .map(far)
-            .fold((0.0, 0.0), max)
-    } else {
-        let pairs = reference.par_iter().zip(positions);
-        pairs.map(far).reduce(|| (0.0, 0.0), max)
-    };
+    let (d2, di) = fold_moves(reference, positions, (0.0, 0.0), far, max);
     let d = if d2 >= 1e-300 {
         d2.sqrt()
     } else {
@@ -308,10 +292,7 @@ impl BvhDetector {
             Start::Root
         };
         let from_kept = matches!(start, Start::Front(..));
-        let clearances = match start {
-            Start::Front(_, c) => c,
-            _ => Clearances::Drop,
-        };
+        let clearances = start.clearances();
         let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
