@@ -175,7 +175,11 @@ fn run<V: LeafVisitor>(
         return Found::default();
     }
     let (q, fit) = Query::new(mesh, shape, gap, visitor, first);
-    let mut root = Node::new(0..n as u32, fit);
+    let mut root = if n <= LEAF {
+        q.node(0..n as u32) // with its triangles gathered
+    } else {
+        Node::new(0..n as u32, fit)
+    };
     let mut found = Found::default();
     q.self_test(&mut root, &mut found);
     found
@@ -219,6 +223,10 @@ struct Node {
     normals: Option<(DVec3, f64)>,
     kids: Option<Box<[Node; 2]>>,
     cert: Option<Cert>,
+    /// A leaf's triangles as its pair tests read them, gathered once when
+    /// the leaf is made (a leaf meets a dozen others; each gather from the
+    /// mesh's arrays is a cache miss per triangle). Empty above the leaves.
+    tris: Box<[LeafTri]>,
 }
 
 /// A node whose self-certificate held: its cone and the sorted vertices of
@@ -236,6 +244,7 @@ impl Node {
             normals: fit.normals,
             kids: None,
             cert: None,
+            tris: Box::default(),
         }
     }
 
@@ -462,7 +471,23 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             let t = self.tri(i) as usize;
             fit.add(&boxes[t], &self.normals[k * t..k * t + k])
         });
-        Node::new(range, fit)
+        let mut node = Node::new(range, fit);
+        if node.len() <= LEAF {
+            let tris = self.mesh.triangles();
+            node.tris = node
+                .range
+                .clone()
+                .map(|i| {
+                    let t = self.tri(i);
+                    LeafTri {
+                        t,
+                        bbox: boxes[t as usize],
+                        v: tris[t as usize],
+                    }
+                })
+                .collect();
+        }
+        node
     }
 
     /// Every intersecting pair within `node`, into `f`.
@@ -826,8 +851,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// Every intersecting pair within leaf `node`.
     fn leaf_self(&self, node: &Node, f: &mut Found<V::Item>) {
-        let mut buf = [LeafTri::default(); LEAF];
-        let leaf = self.leaf(node, &mut buf);
+        let leaf = &node.tris;
         for (i, p) in leaf.iter().enumerate() {
             for q in &leaf[i + 1..] {
                 self.test(p, q, f);
@@ -837,30 +861,32 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
     fn leaf_pair(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) {
-        let (mut buf_a, mut buf_b) = ([LeafTri::default(); LEAF], [LeafTri::default(); LEAF]);
-        let (la, lb) = (self.leaf(a, &mut buf_a), self.leaf(b, &mut buf_b));
-        for p in la {
-            if p.bbox.within(&b.bbox, self.gap) {
-                for q in lb {
-                    self.test(p, q, f);
-                }
+        let mut near_b = [LeafTri::default(); LEAF];
+        let lb = self.near(&b.tris, &a.bbox, &mut near_b);
+        if lb.is_empty() {
+            return;
+        }
+        for p in a.tris.iter().filter(|p| p.bbox.within(&b.bbox, self.gap)) {
+            for q in lb {
+                self.test(p, q, f);
             }
         }
     }
 
-    /// The triangles of a leaf with their boxes and corners' ids, read once
-    /// for all its pairs.
-    fn leaf<'b>(&self, node: &Node, buf: &'b mut [LeafTri; LEAF]) -> &'b [LeafTri] {
-        let (boxes, tris) = (self.boxes(), self.mesh.triangles());
-        for (slot, i) in buf.iter_mut().zip(node.range.clone()) {
-            let t = self.tri(i);
-            *slot = LeafTri {
-                t,
-                bbox: boxes[t as usize],
-                v: tris[t as usize],
-            };
+    /// The triangles of a leaf whose boxes are within the gap of `other`
+    /// (the other leaf's box): only they can meet one of its triangles.
+    fn near<'b>(
+        &self,
+        tris: &[LeafTri],
+        other: &Aabb,
+        buf: &'b mut [LeafTri; LEAF],
+    ) -> &'b [LeafTri] {
+        let mut n = 0;
+        for p in tris.iter().filter(|p| p.bbox.within(other, self.gap)) {
+            buf[n] = *p;
+            n += 1;
         }
-        &buf[..node.len()]
+        &buf[..n]
     }
 
     /// The visitor's test of two leaf triangles whose boxes are within the
