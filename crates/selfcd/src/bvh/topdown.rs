@@ -15,7 +15,11 @@
 //! of the triangles, split only when a test needs its children, at the
 //! midpoint of its box along the axis whose plane cuts the fewest triangle
 //! boxes, so children are ranges too and a triangle's membership in a node
-//! is a range test on its position in the permutation.
+//! is a range test on its position in the permutation. A node whose test
+//! failed only because it holds several edge-connected pieces (layers of
+//! cloth, a garment on a body: Euler characteristic 2 or more) is split
+//! into its largest piece and the rest instead, so that each layer can
+//! certify on its own (spatial halves would hold every layer again).
 //!
 //! ```text
 //! self(N)    = nothing if N's certificate holds; the pairs of a leaf (at most
@@ -227,6 +231,14 @@ struct Node {
     /// the leaf is made (a leaf meets a dozen others; each gather from the
     /// mesh's arrays is a cache miss per triangle). Empty above the leaves.
     tris: Box<[LeafTri]>,
+}
+
+/// What a node's self-certificate test found.
+enum SelfCert {
+    Held,
+    /// Refused, with several pieces (edge-connected components) in the node.
+    Pieces,
+    Refused,
 }
 
 /// A node whose self-certificate held: its cone and the sorted vertices of
@@ -495,9 +507,20 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         if node.len() <= LEAF {
             return self.leaf_self(node, f);
         }
-        if self.self_certified(node, f) {
-            f.counters.self_culls += 1;
-            return;
+        match self.self_certified(node, f) {
+            SelfCert::Held => {
+                f.counters.self_culls += 1;
+                return;
+            }
+            SelfCert::Pieces => {
+                if let Some(mid) = self.split_off_piece(node) {
+                    node.kids = Some(Box::new([
+                        self.node(node.range.start..mid),
+                        self.node(mid..node.range.end),
+                    ]));
+                }
+            }
+            SelfCert::Refused => {}
         }
         let parallel = !self.first && node.len() >= PAR_MIN;
         let [a, b] = self.kids(node);
@@ -674,22 +697,78 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// The self-certificate of `node` (module doc), kept in the node when
     /// it holds; counted in `f`.
-    fn self_certified(&self, node: &mut Node, f: &mut Found<V::Item>) -> bool {
+    fn self_certified(&self, node: &mut Node, f: &mut Found<V::Item>) -> SelfCert {
         let Some(cone) = node.normals.and_then(|n| self.cone(node, n)) else {
-            return false;
+            return SelfCert::Refused;
         };
         f.counters.contour_tests += 1;
         let mut contour = std::mem::take(&mut f.scratch.contour);
         let range = std::slice::from_ref(&node.range);
-        let ok = self.disk_contour(range, &mut contour)
-            && self.height_field(cone.axis, &node.bbox, &contour, f);
+        let euler = self.contour_euler(range, &mut contour);
+        let ok = euler == Some(1) && self.height_field(cone.axis, &node.bbox, &contour, f);
         if ok {
             let boundary = starts(&contour);
             node.cert = Some(Cert { cone, boundary });
         }
         f.scratch.contour = contour;
         f.counters.contour_fails += !ok as u64;
-        ok
+        match euler {
+            _ if ok => SelfCert::Held,
+            Some(e) if e >= 2 => SelfCert::Pieces,
+            _ => SelfCert::Refused,
+        }
+    }
+
+    /// Splits `node` into its largest edge-connected piece and the rest
+    /// (reordering its range: the piece first) when each side holds at
+    /// least 1/16 of it, so the depth stays logarithmic. Returns where the
+    /// rest starts, or `None` (range untouched).
+    ///
+    /// Why: a node whose cone is under 90 degrees but which holds several
+    /// pieces (layers of cloth lying on each other, a garment on a body)
+    /// fails the disk test, and so do its spatial halves, which hold the
+    /// same layers, down to the leaves. Split by pieces, each layer can
+    /// certify on its own, and only the pair of layers is descended.
+    fn split_off_piece(&self, node: &Node) -> Option<u32> {
+        let Range { start, end } = node.range.clone();
+        let len = (end - start) as usize;
+        const NONE: u32 = u32::MAX;
+        let mut label = vec![NONE; len];
+        let (mut stack, mut largest, mut pieces) = (Vec::new(), (0usize, 0u32), 0u32);
+        for first in 0..len {
+            if label[first] != NONE {
+                continue;
+            }
+            label[first] = pieces;
+            stack.push(first);
+            let mut size = 0;
+            while let Some(k) = stack.pop() {
+                size += 1;
+                let t = self.tri(start + k as u32);
+                for o in self.across[t as usize] {
+                    let p = self.pos[o as usize].load(Relaxed);
+                    if o != t && (start..end).contains(&p) && label[(p - start) as usize] == NONE {
+                        label[(p - start) as usize] = pieces;
+                        stack.push((p - start) as usize);
+                    }
+                }
+            }
+            if size > largest.0 {
+                largest = (size, pieces);
+            }
+            pieces += 1;
+        }
+        let min = (len / 16).max(1);
+        if pieces < 2 || largest.0 < min || len - largest.0 < min {
+            return None;
+        }
+        let tris: Vec<u32> = (start..end).map(|i| self.tri(i)).collect();
+        let (piece, rest): (Vec<_>, Vec<_>) =
+            tris.iter().zip(&label).partition(|(_, &l)| l == largest.1);
+        for (i, (&t, _)) in (start..).zip(piece.into_iter().chain(rest)) {
+            self.place(i, t);
+        }
+        Some(start + largest.0 as u32)
     }
 
     /// The certificate of the union of `a` and `b`, tried only when their
@@ -788,12 +867,19 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// doc's S' has Euler characteristic at most 1, so S has at most 1, and a
     /// lower count than S's is then below 1).
     fn disk_contour(&self, ranges: &[Range<u32>], contour: &mut Vec<[u32; 2]>) -> bool {
+        self.contour_euler(ranges, contour) == Some(1)
+    }
+
+    /// The contour of the union of `ranges` and its Euler characteristic as
+    /// [`disk_contour`](Self::disk_contour) counts it (never above the
+    /// union's own, so 2 or more means several components), or `None` at an
+    /// edge that refuses the union (in more than two triangles of the mesh,
+    /// or in two of the union with the same direction).
+    fn contour_euler(&self, ranges: &[Range<u32>], contour: &mut Vec<[u32; 2]>) -> Option<i64> {
         contour.clear();
         let (mut owned, mut f) = (0i64, 0i64);
         for piece in self.pieces(ranges, |r| self.contour_piece(ranges, r)) {
-            let Some((o, n, edges)) = piece else {
-                return false;
-            };
+            let (o, n, edges) = piece?;
             (owned, f) = (owned + o, f + n);
             contour.extend(edges);
         }
@@ -804,7 +890,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             .filter(|&v| !member(vertex_tris.row(v as usize)[0]))
             .count() as i64;
         let e = (3 * f + contour.len() as i64) / 2;
-        owned + outside_owned - e + f == 1
+        Some(owned + outside_owned - e + f)
     }
 
     /// Is triangle `t` in the union of `ranges`?
@@ -1101,6 +1187,52 @@ mod tests {
             found += want.len();
         }
         found
+    }
+
+    /// Two wavy sheets lying on each other, `gap` apart (one mesh, two
+    /// components); the upper one shifted by `dz` at vertex `lift` (none
+    /// when out of range), so that it may pierce the lower one.
+    fn layered_sheets(gap: f64, lift: usize, dz: f64) -> (Mesh, Vec<DVec3>) {
+        let (v, f) = grid(40, 1.0);
+        let n = v.len() as u32;
+        let wave = |p: [f64; 3]| 0.06 * (2.0 * std::f64::consts::PI * p[0]).sin();
+        let mut all: Vec<[f64; 3]> = v.iter().map(|&p| [p[0], p[1], wave(p)]).collect();
+        all.extend(v.iter().map(|&p| [p[0], p[1], wave(p) + gap]));
+        if let Some(p) = all.get_mut(v.len() + lift) {
+            p[2] += dz;
+        }
+        let mut tris = f.clone();
+        tris.extend(f.iter().map(|t| t.map(|i| i + n)));
+        let mesh = Mesh::new(all, tris).unwrap();
+        let x = mesh.rest().to_vec();
+        (mesh, x)
+    }
+
+    #[test]
+    fn layers_certify_each_on_its_own() {
+        // Under 90 degrees together, but two pieces: the disk test fails at
+        // the root, which is split into the sheets; each certifies, and only
+        // their pair is descended (no leaf of one sheet tested against itself
+        // or a neighbour: no adjacent pair is ever looked at).
+        let (mesh, x) = layered_sheets(0.03, usize::MAX, 0.0);
+        let (pairs, c) = self_intersections(&mesh, &x);
+        assert!(pairs.is_empty());
+        assert!(c.self_culls >= 2, "{c:?}");
+        assert_eq!(c.adjacent_skips, 0, "{c:?}");
+        assert!(c.node_pairs > 0, "{c:?}");
+        // A vertex of the upper sheet pushed through the lower one: the
+        // same pairs as the brute-force reference.
+        use crate::detect::{brute::BruteDetector, Detector};
+        let (mesh, x) = layered_sheets(0.03, 40 * 20 + 13, -0.1);
+        let mesh = std::sync::Arc::new(mesh);
+        let want = BruteDetector::new(mesh.clone(), 0.0)
+            .detect(&x)
+            .unwrap()
+            .pairs;
+        let (mut got, _) = self_intersections(&mesh, &x);
+        got.sort_unstable();
+        assert!(!want.is_empty());
+        assert_eq!(got, want);
     }
 
     #[test]
