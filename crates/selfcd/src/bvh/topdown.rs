@@ -179,11 +179,7 @@ fn run<V: LeafVisitor>(
         return Found::default();
     }
     let (q, fit) = Query::new(mesh, shape, gap, visitor, first);
-    let mut root = if n <= LEAF {
-        q.node(0..n as u32) // with its triangles gathered
-    } else {
-        Node::new(0..n as u32, fit)
-    };
+    let mut root = Node::new(0..n as u32, fit);
     let mut found = Found::default();
     q.self_test(&mut root, &mut found);
     found
@@ -227,9 +223,9 @@ struct Node {
     normals: Option<(DVec3, f64)>,
     kids: Option<Box<[Node; 2]>>,
     cert: Option<Cert>,
-    /// A leaf's triangles as its pair tests read them, gathered once when
-    /// the leaf is made (a leaf meets a dozen others; each gather from the
-    /// mesh's arrays is a cache miss per triangle). Empty above the leaves.
+    /// A leaf's triangles as its pair tests read them, gathered once on first
+    /// use ([`Query::leaf_tris`]; a leaf meets a dozen others, and each gather
+    /// from the mesh's arrays is a cache miss per triangle). Empty until then.
     tris: Box<[LeafTri]>,
 }
 
@@ -483,9 +479,13 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             let t = self.tri(i) as usize;
             fit.add(&boxes[t], &self.normals[k * t..k * t + k])
         });
-        let mut node = Node::new(range, fit);
-        if node.len() <= LEAF {
-            let tris = self.mesh.triangles();
+        Node::new(range, fit)
+    }
+
+    /// Leaf `node`'s triangles, gathered on first use.
+    fn leaf_tris<'n>(&self, node: &'n mut Node) -> &'n [LeafTri] {
+        if node.tris.is_empty() {
+            let (boxes, tris) = (self.boxes(), self.mesh.triangles());
             node.tris = node
                 .range
                 .clone()
@@ -499,7 +499,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 })
                 .collect();
         }
-        node
+        &node.tris
     }
 
     /// Every intersecting pair within `node`, into `f`.
@@ -936,8 +936,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair within leaf `node`.
-    fn leaf_self(&self, node: &Node, f: &mut Found<V::Item>) {
-        let leaf = &node.tris;
+    fn leaf_self(&self, node: &mut Node, f: &mut Found<V::Item>) {
+        let leaf = self.leaf_tris(node);
         for (i, p) in leaf.iter().enumerate() {
             for q in &leaf[i + 1..] {
                 self.test(p, q, f);
@@ -946,13 +946,18 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
-    fn leaf_pair(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) {
+    fn leaf_pair(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
         let mut near_b = [LeafTri::default(); LEAF];
-        let lb = self.near(&b.tris, &a.bbox, &mut near_b);
+        let lb = self.near(self.leaf_tris(b), &a.bbox, &mut near_b);
         if lb.is_empty() {
             return;
         }
-        for p in a.tris.iter().filter(|p| p.bbox.within(&b.bbox, self.gap)) {
+        let b_box = b.bbox;
+        for p in self
+            .leaf_tris(a)
+            .iter()
+            .filter(|p| p.bbox.within(&b_box, self.gap))
+        {
             for q in lb {
                 self.test(p, q, f);
             }
