@@ -1195,16 +1195,16 @@ mod tests {
     }
 
     /// Two wavy sheets lying on each other, `gap` apart (one mesh, two
-    /// components); the upper one shifted by `dz` at vertex `lift` (none
-    /// when out of range), so that it may pierce the lower one.
-    fn layered_sheets(gap: f64, lift: usize, dz: f64) -> (Mesh, Vec<DVec3>) {
+    /// components); the upper one's vertex `lift` (if any) shifted by `dz`,
+    /// so that it may pierce the lower one.
+    fn layered_sheets(gap: f64, lift: Option<usize>, dz: f64) -> (Mesh, Vec<DVec3>) {
         let (v, f) = grid(40, 1.0);
         let n = v.len() as u32;
         let wave = |p: [f64; 3]| 0.06 * (2.0 * std::f64::consts::PI * p[0]).sin();
         let mut all: Vec<[f64; 3]> = v.iter().map(|&p| [p[0], p[1], wave(p)]).collect();
         all.extend(v.iter().map(|&p| [p[0], p[1], wave(p) + gap]));
-        if let Some(p) = all.get_mut(v.len() + lift) {
-            p[2] += dz;
+        if let Some(k) = lift {
+            all[v.len() + k][2] += dz;
         }
         let mut tris = f.clone();
         tris.extend(f.iter().map(|t| t.map(|i| i + n)));
@@ -1219,7 +1219,7 @@ mod tests {
         // the root, which is split into the sheets; each certifies, and only
         // their pair is descended (no leaf of one sheet tested against itself
         // or a neighbour: no adjacent pair is ever looked at).
-        let (mesh, x) = layered_sheets(0.03, usize::MAX, 0.0);
+        let (mesh, x) = layered_sheets(0.03, None, 0.0);
         let (pairs, c) = self_intersections(&mesh, &x);
         assert!(pairs.is_empty());
         assert!(c.self_culls >= 2, "{c:?}");
@@ -1228,7 +1228,7 @@ mod tests {
         // A vertex of the upper sheet pushed through the lower one: the
         // same pairs as the brute-force reference.
         use crate::detect::{brute::BruteDetector, Detector};
-        let (mesh, x) = layered_sheets(0.03, 40 * 20 + 13, -0.1);
+        let (mesh, x) = layered_sheets(0.03, Some(40 * 20 + 13), -0.1);
         let mesh = std::sync::Arc::new(mesh);
         let want = BruteDetector::new(mesh.clone(), 0.0)
             .detect(&x)
