@@ -652,18 +652,24 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             let b = &boxes[t as usize];
             b.min[axis] + b.max[axis] < twice_mid[axis]
         };
-        let (mut i, mut j) = (start, end);
-        while i < j {
-            let t = self.tri(i);
-            if below(t) {
-                i += 1;
-            } else {
-                j -= 1;
-                let u = self.tri(j);
-                self.place(i, u);
-                self.place(j, t);
-            }
+        // Branchless: each triangle is written at both free ends of `buf`,
+        // and the end it belongs to advances (the side is a coin flip for
+        // the branch predictor).
+        let n = (end - start) as usize;
+        let mut buf = vec![0u32; n];
+        let (mut a, mut b) = (0usize, n);
+        for k in start..end {
+            let t = self.tri(k);
+            let low = below(t);
+            buf[a] = t;
+            buf[b - 1] = t;
+            a += low as usize;
+            b -= !low as usize;
         }
+        for (k, &t) in (start..end).zip(&buf) {
+            self.place(k, t);
+        }
+        let i = start + a as u32;
         let len = end - start;
         if (i - start).min(end - i) >= (len / 16).max(1) {
             return i;
