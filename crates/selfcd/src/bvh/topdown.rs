@@ -945,9 +945,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn leaf_self(&self, node: &mut Node, f: &mut Found<V::Item>) {
         let leaf = self.leaf_tris(node);
         for (i, p) in leaf.iter().enumerate() {
-            for q in &leaf[i + 1..] {
-                self.test(p, q, f);
-            }
+            self.test_near(p, &leaf[i + 1..], f);
         }
     }
 
@@ -958,15 +956,34 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         if lb.is_empty() {
             return;
         }
-        let b_box = b.bbox;
-        for p in self
-            .leaf_tris(a)
-            .iter()
-            .filter(|p| p.bbox.within(&b_box, self.gap))
-        {
-            for q in lb {
-                self.test(p, q, f);
-            }
+        let mut near_a = [LeafTri::default(); LEAF];
+        for p in self.near(self.leaf_tris(a), &b.bbox, &mut near_a) {
+            self.test_near(p, lb, f);
+        }
+    }
+
+    /// [`test`](Self::test) of `p` with each of `qs` (at most 32) whose box is
+    /// within the gap of `p`'s: the boxes are compared first, all of them
+    /// without a branch (a box test is a coin flip for the branch predictor),
+    /// and only the pairs they keep are tested.
+    #[inline]
+    fn test_near(&self, p: &LeafTri, qs: &[LeafTri], f: &mut Found<V::Item>) {
+        debug_assert!(qs.len() <= 32);
+        // Bit k: q_k's box is within the gap; of those, sharing a vertex.
+        let (mut near, mut adjacent) = (0u32, 0u32);
+        for (k, q) in qs.iter().enumerate() {
+            let within = boxes_within(&p.bbox, &q.bbox, self.gap);
+            near |= (within as u32) << k;
+            adjacent |= ((within & share_vertex(&p.v, &q.v)) as u32) << k;
+        }
+        if V::SKIP_ADJACENT {
+            f.counters.adjacent_skips += adjacent.count_ones() as u64;
+            near &= !adjacent;
+        }
+        while near != 0 {
+            let k = near.trailing_zeros();
+            self.test(p, &qs[k as usize], adjacent >> k & 1 != 0, f);
+            near &= near - 1;
         }
     }
 
@@ -978,31 +995,31 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         other: &Aabb,
         buf: &'b mut [LeafTri; LEAF],
     ) -> &'b [LeafTri] {
+        // Written always, kept when near: no branch on the box test.
         let mut n = 0;
-        for p in tris.iter().filter(|p| p.bbox.within(other, self.gap)) {
+        for p in tris {
             buf[n] = *p;
-            n += 1;
+            n += boxes_within(&p.bbox, other, self.gap) as usize;
         }
         &buf[..n]
     }
 
     /// The visitor's test of two leaf triangles whose boxes are within the
-    /// gap (unless they share a vertex and the visitor skips those).
+    /// gap (`adjacent`: they share a vertex; never for a visitor that skips
+    /// those).
     #[inline]
-    fn test(&self, p: &LeafTri, q: &LeafTri, f: &mut Found<V::Item>) {
-        if !p.bbox.within(&q.bbox, self.gap) {
-            return;
-        }
-        let adjacent = share_vertex(&p.v, &q.v);
-        if adjacent && V::SKIP_ADJACENT {
-            f.counters.adjacent_skips += 1;
-            return;
-        }
+    fn test(&self, p: &LeafTri, q: &LeafTri, adjacent: bool, f: &mut Found<V::Item>) {
         f.counters.primitive_tests += 1;
         let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
         self.visitor
             .visit_counted(lo, hi, adjacent, &mut f.items, &mut f.counters);
     }
+}
+
+/// [`Aabb::within`] without a branch: both sides compared, then combined.
+#[inline(always)]
+fn boxes_within(a: &Aabb, b: &Aabb, gap: f64) -> bool {
+    ((a.min - b.max).max_element() <= gap) & ((b.min - a.max).max_element() <= gap)
 }
 
 /// How many unit normals of each triangle a query of `shape` within `gap`
