@@ -972,7 +972,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         // Bit k: q_k's box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u32, 0u32);
         for (k, q) in qs.iter().enumerate() {
-            let within = boxes_within(&p.bbox, &q.bbox, self.gap);
+            let within = p.bbox.within_branchless(&q.bbox, self.gap);
             near |= (within as u32) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u32) << k;
         }
@@ -999,7 +999,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         let mut n = 0;
         for p in tris {
             buf[n] = *p;
-            n += boxes_within(&p.bbox, other, self.gap) as usize;
+            n += p.bbox.within_branchless(other, self.gap) as usize;
         }
         &buf[..n]
     }
@@ -1014,12 +1014,6 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         self.visitor
             .visit_counted(lo, hi, adjacent, &mut f.items, &mut f.counters);
     }
-}
-
-/// [`Aabb::within`] without a branch: both sides compared, then combined.
-#[inline(always)]
-fn boxes_within(a: &Aabb, b: &Aabb, gap: f64) -> bool {
-    ((a.min - b.max).max_element() <= gap) & ((b.min - a.max).max_element() <= gap)
 }
 
 /// How many unit normals of each triangle a query of `shape` within `gap`

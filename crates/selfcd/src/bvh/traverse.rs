@@ -665,14 +665,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     }
 
     /// The leaf pairs of small node `n`, each tested as the descent tests
-    /// two leaves ([`leaf_boxes`](Self::leaf_boxes)).
+    /// two leaves ([`leaf_row`](Self::leaf_row)).
     fn small_self(&self, n: u32, acc: &mut Acc<V::Item, C::Scratch>) {
         let mut leaves = [0; Bvh::SMALL];
         let k = self.bvh.small_leaves(n, &mut leaves);
         for (i, &x) in leaves[..k].iter().enumerate() {
-            for &y in &leaves[i + 1..k] {
-                self.leaf_boxes(x, y, acc);
-            }
+            self.leaf_row(x, &leaves[i + 1..k], acc);
         }
     }
 
@@ -685,8 +683,29 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             self.bvh.small_leaves(b, &mut lb),
         );
         for &x in &la[..ka] {
-            for &y in &lb[..kb] {
-                self.leaf_boxes(x, y, acc);
+            self.leaf_row(x, &lb[..kb], acc);
+        }
+    }
+
+    /// Leaf `x` with each of `ys` as the descent tests two leaves (boxes
+    /// within the gap, counted as node pairs; then slabs, then the leaf
+    /// test): the box tests first, all of them without a branch (each is a
+    /// coin flip for the branch predictor), then the pairs they keep.
+    #[inline]
+    fn leaf_row(&self, x: u32, ys: &[u32], acc: &mut Acc<V::Item, C::Scratch>) {
+        let boxes = &self.bvh.boxes;
+        let bx = &boxes[x as usize];
+        let mut near = ys.iter().enumerate().fold(0u32, |m, (k, &y)| {
+            m | (bx.within_branchless(&boxes[y as usize], self.gap) as u32) << k
+        });
+        acc.counters.node_pairs += ys.len() as u64;
+        while near != 0 {
+            let y = ys[near.trailing_zeros() as usize];
+            near &= near - 1;
+            if self.slabs_apart(x, y) {
+                acc.counters.slab_culls += 1;
+            } else {
+                self.leaf_pair(x, y, false, acc);
             }
         }
     }
@@ -705,14 +724,6 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             return false;
         }
         true
-    }
-
-    /// Leaves `a` and `b` as the descent tests them: [`may_meet`](Self::may_meet), then the test.
-    #[inline]
-    fn leaf_boxes(&self, a: u32, b: u32, acc: &mut Acc<V::Item, C::Scratch>) {
-        if self.may_meet(a, b, acc) {
-            self.leaf_pair(a, b, false, acc);
-        }
     }
 
     /// Are the nodes apart along `a`'s cone axis ([`crate::geom::Slab`]:

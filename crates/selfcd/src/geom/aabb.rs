@@ -49,6 +49,14 @@ impl Aabb {
         (self.min - o.max).max_element() <= gap && (o.min - self.max).max_element() <= gap
     }
 
+    /// [`within`](Self::within) with both sides compared and combined, no
+    /// early exit: for loops of box tests whose outcomes a branch predictor
+    /// cannot guess.
+    #[inline(always)]
+    pub fn within_branchless(&self, o: &Aabb, gap: f64) -> bool {
+        ((self.min - o.max).max_element() <= gap) & ((o.min - self.max).max_element() <= gap)
+    }
+
     /// The box grown by `r` on every side.
     #[inline]
     pub fn inflate(&self, r: f64) -> Aabb {
