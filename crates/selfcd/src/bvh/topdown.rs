@@ -60,8 +60,12 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 use std::sync::OnceLock;
 
-/// Nodes of at most this many triangles are tested pair by pair.
-const LEAF: usize = 16;
+/// Nodes of at most this many triangles are tested pair by pair (at most
+/// 64: [`Query::test_near`]'s masks). With the leaf tests free of branches,
+/// 32 beat 16 on every input but the folded grid (+2-3%; BENCHMARKS.md,
+/// seventeenth landing); 48 cost the folded grid 5-8% more for no further
+/// gain elsewhere.
+const LEAF: usize = 32;
 /// Nodes of at least this many triangles run their halves as parallel tasks.
 const PAR_MIN: usize = 2048;
 /// Triangles per parallel task of one node's certificate passes.
@@ -962,19 +966,19 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         }
     }
 
-    /// [`test`](Self::test) of `p` with each of `qs` (at most 32) whose box is
+    /// [`test`](Self::test) of `p` with each of `qs` (at most 64) whose box is
     /// within the gap of `p`'s: the boxes are compared first, all of them
     /// without a branch (a box test is a coin flip for the branch predictor),
     /// and only the pairs they keep are tested.
     #[inline]
     fn test_near(&self, p: &LeafTri, qs: &[LeafTri], f: &mut Found<V::Item>) {
-        debug_assert!(qs.len() <= 32);
+        debug_assert!(qs.len() <= 64);
         // Bit k: q_k's box is within the gap; of those, sharing a vertex.
-        let (mut near, mut adjacent) = (0u32, 0u32);
+        let (mut near, mut adjacent) = (0u64, 0u64);
         for (k, q) in qs.iter().enumerate() {
             let within = p.bbox.within_branchless(&q.bbox, self.gap);
-            near |= (within as u32) << k;
-            adjacent |= ((within & share_vertex(&p.v, &q.v)) as u32) << k;
+            near |= (within as u64) << k;
+            adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
         }
         if V::SKIP_ADJACENT {
             f.counters.adjacent_skips += adjacent.count_ones() as u64;
