@@ -6,7 +6,10 @@
 //! differ. Every decision is an exact sign ([`Orientation`]) over the six
 //! corners, so touching at a point, along an edge and coplanar overlap are all
 //! reported, and nothing is lost to rounding, overflow or underflow.
-//! Degenerate (collapsed) triangles are handled as their edges.
+//! Degenerate (collapsed) triangles are handled as their edges. Pairs in
+//! general position (no corner on the other's plane, the usual crossing
+//! contact) take a shortcut: two more orientations instead of the edge
+//! tests ([`crossing`]).
 //!
 //! The corners are named by index: a = 0, 1, 2 and b = 3, 4, 5. The decision is
 //! written once, generic over the arithmetic: Shewchuk's expansions for every
@@ -116,6 +119,9 @@ fn intersect<K: Orientation>(k: &K) -> bool {
     if strictly_one_side(sa) {
         return false;
     }
+    if sa.iter().chain(&sb).all(|&x| x != 0) {
+        return crossing(k, sa, sb);
+    }
     let na = k.normal_axis(A);
     let nb = k.normal_axis(B);
     let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
@@ -134,6 +140,41 @@ fn intersect<K: Orientation>(k: &K) -> bool {
         (Some(ax), Some(_)) if sb == [0; 3] => triangles_intersect_2d(k, ax, A, B),
         (Some(ax), Some(bx)) => any_edge(A, B, bx) || any_edge(B, A, ax),
     }
+}
+
+/// Triangles a and b in general position: every corner strictly off the
+/// other's plane (`sa`, `sb`: the corners' sides, none 0), each with corners
+/// on both sides. Then the triangles meet iff the segments they cut from the
+/// line where the planes meet overlap, which two orientations decide
+/// (Guigue and Devillers 2003): rotate each triangle so that its first
+/// corner (p1, p2) is alone on its side of the other's plane, turn each so
+/// that that corner lies on the same side (swapping the other two corners),
+/// and the segments overlap iff neither orientation puts one interval
+/// strictly past the other.
+fn crossing<K: Orientation>(k: &K, sa: [i8; 3], sb: [i8; 3]) -> bool {
+    crossing_orientations(k, sa, sb).iter().all(|&x| x <= 0)
+}
+
+/// The two orientations [`crossing`] decides by (both at most 0: the
+/// segments overlap; both negative: in more than a point).
+fn crossing_orientations<K: Orientation>(k: &K, sa: [i8; 3], sb: [i8; 3]) -> [i8; 2] {
+    // The corner alone on its side: the one whose sign its two followers share.
+    let alone = |s: [i8; 3]| {
+        (0..3)
+            .find(|&i| s[(i + 1) % 3] == s[(i + 2) % 3])
+            .unwrap_or(0)
+    };
+    let (i, j) = (alone(sa), alone(sb));
+    let (p1, mut q1, mut r1) = (A[i], A[(i + 1) % 3], A[(i + 2) % 3]);
+    let (p2, mut q2, mut r2) = (B[j], B[(j + 1) % 3], B[(j + 2) % 3]);
+    // p1 below b's plane as oriented (q2, r2 swapped otherwise), and p2 below a's.
+    if sa[i] < 0 {
+        std::mem::swap(&mut q2, &mut r2);
+    }
+    if sb[j] < 0 {
+        std::mem::swap(&mut q1, &mut r1);
+    }
+    [k.orient3d([p1, q1, p2, q2]), k.orient3d([p1, r1, r2, p2])]
 }
 
 fn edges(t: [usize; 3]) -> [[usize; 2]; 3] {
@@ -254,6 +295,73 @@ fn point_in_triangle_2d<K: Orientation>(k: &K, axis: usize, r: usize, t: [usize;
 mod tests {
     use super::*;
 
+    /// The general-position shortcut decides as the edge tests do, on
+    /// random pairs (most crossing planes, many meeting) at several scales
+    /// and on pairs that only just meet or miss.
+    #[test]
+    fn crossing_agrees_with_the_edge_tests() {
+        let mut rng = crate::scene::SplitMix::new(23);
+        let mut r = || 2.0 * rng.unit() - 1.0;
+        let (mut general, mut meet) = (0, 0);
+        for n in 0..200_000 {
+            let scale = [1.0, 1e-3, 1e5][n % 3];
+            let spread = [1.0, 0.3, 0.05][n / 3 % 3];
+            let c = DVec3::new(r(), r(), r()) * 0.5;
+            let mut tri =
+                |o: DVec3| [(); 3].map(|_| (o + DVec3::new(r(), r(), r()) * spread) * scale);
+            let (a, b) = (tri(DVec3::ZERO), tri(c * spread));
+            let p = [a[0], a[1], a[2], b[0], b[1], b[2]];
+            let kx = Expansion::new(p).unwrap();
+            let sb = B.map(|q| kx.orient3d([A[0], A[1], A[2], q]));
+            let sa = A.map(|q| kx.orient3d([B[0], B[1], B[2], q]));
+            if strictly_one_side(sa) || strictly_one_side(sb) {
+                continue;
+            }
+            if sa.iter().chain(&sb).any(|&x| x == 0) {
+                continue;
+            }
+            general += 1;
+            let (na, nb) = (kx.normal_axis(A).unwrap(), kx.normal_axis(B).unwrap());
+            let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
+                edges(x)
+                    .iter()
+                    .any(|e| segment_triangle(&kx, e[0], e[1], y, axis))
+            };
+            let want = any_edge(A, B, nb) || any_edge(B, A, na);
+            meet += want as usize;
+            assert_eq!(crossing(&kx, sa, sb), want, "pair {n}: {a:?} {b:?}");
+        }
+        assert!(general > 50_000 && meet > 10_000, "{general} {meet}");
+        // Small integer corners: the segments on the planes' line often
+        // touch exactly at an end (the two orientations 0).
+        let (mut general, mut touching) = (0, 0);
+        for n in 0..300_000 {
+            let mut i = || (rng.next_u64() % 7) as f64 - 3.0;
+            let mut tri = || [(); 3].map(|_| DVec3::new(i(), i(), i()));
+            let (a, b) = (tri(), tri());
+            let kx = Expansion::new([a[0], a[1], a[2], b[0], b[1], b[2]]).unwrap();
+            let sb = B.map(|q| kx.orient3d([A[0], A[1], A[2], q]));
+            let sa = A.map(|q| kx.orient3d([B[0], B[1], B[2], q]));
+            if strictly_one_side(sa)
+                || strictly_one_side(sb)
+                || sa.iter().chain(&sb).any(|&x| x == 0)
+            {
+                continue;
+            }
+            general += 1;
+            let (na, nb) = (kx.normal_axis(A).unwrap(), kx.normal_axis(B).unwrap());
+            let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
+                edges(x)
+                    .iter()
+                    .any(|e| segment_triangle(&kx, e[0], e[1], y, axis))
+            };
+            let want = any_edge(A, B, nb) || any_edge(B, A, na);
+            let got = crossing(&kx, sa, sb);
+            touching += crossing_orientations(&kx, sa, sb).contains(&0) as usize;
+            assert_eq!(got, want, "integer pair {n}: {a:?} {b:?}");
+        }
+        assert!(general > 10_000 && touching > 100, "{general} {touching}");
+    }
     /// The plane clearance never exceeds the distance between the
     /// triangles, and corners moved by less than half of it leave them
     /// apart; at every scale, and 0 where the triangles cross a plane.
