@@ -976,7 +976,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         // Bit k: q_k's box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u64, 0u64);
         for (k, q) in qs.iter().enumerate() {
-            let within = p.bbox.within_branchless(&q.bbox, self.gap);
+            let within = p.bbox.within(&q.bbox, self.gap);
             near |= (within as u64) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
         }
@@ -1003,7 +1003,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         let mut n = 0;
         for p in tris {
             buf[n] = *p;
-            n += p.bbox.within_branchless(other, self.gap) as usize;
+            n += p.bbox.within(other, self.gap) as usize;
         }
         &buf[..n]
     }

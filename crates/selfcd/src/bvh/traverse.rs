@@ -696,7 +696,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         let boxes = &self.bvh.boxes;
         let bx = &boxes[x as usize];
         let mut near = ys.iter().enumerate().fold(0u32, |m, (k, &y)| {
-            m | (bx.within_branchless(&boxes[y as usize], self.gap) as u32) << k
+            m | (bx.within(&boxes[y as usize], self.gap) as u32) << k
         });
         acc.counters.node_pairs += ys.len() as u64;
         while near != 0 {

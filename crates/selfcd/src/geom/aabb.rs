@@ -44,16 +44,11 @@ impl Aabb {
 
     /// True when the gap between the boxes is at most `gap` along every axis
     /// (`gap` = 0: the closed boxes share a point, as [`overlaps`](Self::overlaps)).
-    #[inline]
-    pub fn within(&self, o: &Aabb, gap: f64) -> bool {
-        (self.min - o.max).max_element() <= gap && (o.min - self.max).max_element() <= gap
-    }
-
-    /// [`within`](Self::within) with both sides compared and combined, no
-    /// early exit: for loops of box tests whose outcomes a branch predictor
-    /// cannot guess.
+    /// Both sides are compared and combined without an early exit, so loops
+    /// of box tests (whose outcomes a branch predictor cannot guess) can fold
+    /// them into masks without a branch.
     #[inline(always)]
-    pub fn within_branchless(&self, o: &Aabb, gap: f64) -> bool {
+    pub fn within(&self, o: &Aabb, gap: f64) -> bool {
         ((self.min - o.max).max_element() <= gap) & ((o.min - self.max).max_element() <= gap)
     }
 

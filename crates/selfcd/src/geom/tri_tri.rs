@@ -120,8 +120,16 @@ fn intersect<K: Orientation>(k: &K) -> bool {
         return false;
     }
     if sa.iter().chain(&sb).all(|&x| x != 0) {
-        return crossing(k, sa, sb);
+        crossing(k, sa, sb)
+    } else {
+        edge_tests(k, sb)
     }
+}
+
+/// The decision once neither triangle is strictly on one side of the
+/// other's plane (`sb`: b's corners' sides of a's plane), by their edges:
+/// correct for every such pair, degenerate and coplanar ones included.
+fn edge_tests<K: Orientation>(k: &K, sb: [i8; 3]) -> bool {
     let na = k.normal_axis(A);
     let nb = k.normal_axis(B);
     let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
@@ -306,13 +314,7 @@ mod tests {
         if strictly_one_side(sa) || strictly_one_side(sb) || sa.iter().chain(&sb).any(|&x| x == 0) {
             return None;
         }
-        let (na, nb) = (kx.normal_axis(A)?, kx.normal_axis(B)?);
-        let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
-            edges(x)
-                .iter()
-                .any(|e| segment_triangle(&kx, e[0], e[1], y, axis))
-        };
-        let edges_say = any_edge(A, B, nb) || any_edge(B, A, na);
+        let edges_say = edge_tests(&kx, sb);
         let touch = crossing_orientations(&kx, sa, sb).contains(&0);
         Some((crossing(&kx, sa, sb), edges_say, touch))
     }
