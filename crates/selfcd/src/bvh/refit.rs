@@ -98,12 +98,62 @@ impl Bvh {
         }
         let mut boxes = std::mem::take(&mut self.boxes);
         let mut cones = std::mem::take(&mut self.cones);
-        self.merge_up(&mut boxes, Aabb::union);
-        self.merge_up(&mut cones, NormalCone::merge);
-        if std::mem::size_of::<T>() > 0 {
-            self.merge_up(values, merge);
-        }
+        self.merge_up_all(&mut boxes, &mut cones, values, merge);
         (self.boxes, self.cones) = (boxes, cones);
+    }
+
+    /// Sets every internal node's box, cone and value to the merge of its
+    /// children's, level by level (leaves already set): one pass that reads
+    /// each node's children once for all three (three passes read the child
+    /// ids and walk the levels three times).
+    fn merge_up_all<T: Copy + Send + Sync>(
+        &self,
+        boxes: &mut [Aabb],
+        cones: &mut [NormalCone],
+        values: &mut [T],
+        merge: impl Fn(&T, &T) -> T + Sync,
+    ) {
+        let n = self.n_leaves;
+        for level in &self.levels {
+            let (lo, hi) = (level.start as usize, level.end as usize);
+            // Children of this level all have ids below `lo`.
+            let (b_done, b_rest) = boxes.split_at_mut(lo);
+            let (c_done, c_rest) = cones.split_at_mut(lo);
+            let (v_done, v_rest) = values.split_at_mut(lo);
+            let kids = &self.children[lo - n..hi - n];
+            let set = |(i, (b, (c, v))): (usize, (&mut Aabb, (&mut NormalCone, &mut T)))| {
+                if let Some(&[l, r]) = kids.get(i + AHEAD) {
+                    for k in [l, r].map(|k| k as usize) {
+                        crate::prefetch::prefetch(&b_done[k]);
+                        crate::prefetch::prefetch(&c_done[k]);
+                    }
+                }
+                let [l, r] = kids[i].map(|k| k as usize);
+                *b = b_done[l].union(&b_done[r]);
+                *c = c_done[l].merge(&c_done[r]);
+                if std::mem::size_of::<T>() > 0 {
+                    *v = merge(&v_done[l], &v_done[r]);
+                }
+            };
+            let out = (
+                &mut b_rest[..hi - lo],
+                &mut c_rest[..hi - lo],
+                &mut v_rest[..hi - lo],
+            );
+            if hi - lo >= PAR_MIN {
+                let (b, c, v) = out;
+                b.par_iter_mut()
+                    .zip(c.par_iter_mut().zip(v.par_iter_mut()))
+                    .enumerate()
+                    .for_each(set);
+            } else {
+                let (b, c, v) = out;
+                b.iter_mut()
+                    .zip(c.iter_mut().zip(v))
+                    .enumerate()
+                    .for_each(set);
+            }
+        }
     }
 
     /// Fits every node's slab along its cone's axis ([`Slab`]) to
