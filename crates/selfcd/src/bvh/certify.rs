@@ -34,8 +34,9 @@ use super::patch::{count_common, have_common, merge_contours, project_contour, P
 use super::Bvh;
 use crate::geom::loop2d::{
     close_pairs, loop_still_simple, loops_meet_only_where_shared,
-    loops_meet_only_where_shared_slack, simple_ccw_loop, simple_ccw_loop_slack, star_about,
-    star_slack, swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
+    loops_meet_only_where_shared_slack, loops_still_meet_only_where_shared, simple_ccw_loop,
+    simple_ccw_loop_slack, star_about, star_slack, swept_simple_ccw_loop, swept_star_about,
+    LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -234,29 +235,50 @@ impl<'a> ContourCull<'a> {
         }
         let check = k.recheck.filter(|c| spread <= c.within)?;
         let plane = Plane::new(k.axis, check.origin);
-        let mut merged = std::mem::take(&mut s.merged);
-        let contour = if a == b {
-            self.bvh.patches.contour_of(a)
+        let p = &self.bvh.patches;
+        let ok = if let Some(split) = check.split {
+            // Two loops touching at vertices: `a`'s edges, then `b`'s.
+            let (mesh, x) = (self.mesh, self.positions);
+            project_contour(mesh, x, p.contour_of(a), &plane, &mut s.segs);
+            project_contour(mesh, x, p.contour_of(b), &plane, &mut s.segs_b);
+            s.segs.extend_from_slice(&s.segs_b);
+            loops_still_meet_only_where_shared(&s.segs, split as usize, r.pairs(&check))
         } else {
-            // (Only glued unions kept a re-check: the same merged contour.)
-            union_disk(&self.bvh.patches, a, b, &mut merged);
-            &merged
+            let mut merged = std::mem::take(&mut s.merged);
+            let contour = if a == b {
+                p.contour_of(a)
+            } else {
+                // A union glued along edges: the same merged contour.
+                union_disk(p, a, b, &mut merged);
+                &merged
+            };
+            project_contour(self.mesh, self.positions, contour, &plane, &mut s.segs);
+            s.merged = merged;
+            loop_still_simple(&s.segs, r.pairs(&check))
         };
-        project_contour(self.mesh, self.positions, contour, &plane, &mut s.segs);
-        let ok = loop_still_simple(&s.segs, r.pairs(&check));
-        s.merged = merged;
         ok.then_some(Reused::Rechecked)
     }
 
     /// The contour's close pairs for a re-check of the certificate just made
-    /// from its projection in `segs` on `plane`.
-    fn loop_pairs(&self, r: &Reuse, plane: &Plane, s: &mut ContourScratch) -> Option<LoopPairs> {
+    /// from its projection in `segs` on `plane` (with `split`: two loops,
+    /// the first's `split` edges in `segs`, the second's in `segs_b`).
+    fn loop_pairs(
+        &self,
+        r: &Reuse,
+        plane: &Plane,
+        split: Option<u32>,
+        s: &mut ContourScratch,
+    ) -> Option<LoopPairs> {
+        if split.is_some() {
+            s.segs.extend_from_slice(&s.segs_b);
+        }
         let mut pairs = Vec::new();
         let extent = close_pairs(&s.segs, r.cap(), &mut s.loops, &mut pairs)?;
         Some(LoopPairs {
             origin: plane.origin(),
             pairs,
             extent,
+            split,
         })
     }
 
@@ -278,7 +300,7 @@ impl<'a> ContourCull<'a> {
             &mut s.loops,
         );
         // (The close pairs are found only where they may pay: `record`.)
-        r.record((a, b), axis, slack, || self.loop_pairs(r, plane, s))
+        r.record((a, b), axis, slack, || self.loop_pairs(r, plane, None, s))
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
@@ -286,7 +308,7 @@ impl<'a> ContourCull<'a> {
     /// 1, no conflicting edge) and its contour gets the node test; when they
     /// touch only at vertices each patch's loop must be simple and the two
     /// loops meet only where the patches do. With kept certificates, the
-    /// answer is recorded with its slack.
+    /// answer is recorded with its slack and the close pairs of both loops.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
         let Some(glued) = union_disk(p, a, b, &mut s.merged) else {
@@ -327,7 +349,10 @@ impl<'a> ContourCull<'a> {
                 let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
                 Some(sa.min(sb).min(sab))
             });
-        r.record((a, b), axis, slack, || None)
+        let split = u32::try_from(ka.len()).ok();
+        r.record((a, b), axis, slack, || {
+            split.and_then(|k| self.loop_pairs(r, &plane, Some(k), s))
+        })
     }
 }
 

@@ -135,6 +135,10 @@ pub struct Recheck {
     pub len: u32,
     /// The spread up to which the close pairs decide.
     pub within: f64,
+    /// For a union of two patches touching only at vertices, the number of
+    /// edges of the first (`a`'s) contour: the pairs then number the edges
+    /// of `a`'s contour then `b`'s. None for one loop.
+    pub split: Option<u32>,
 }
 
 /// A fresh certificate's re-check data before it is stored.
@@ -143,6 +147,7 @@ struct FreshRecheck {
     origin: DVec3,
     pairs: Vec<[u32; 2]>,
     within: f64,
+    split: Option<u32>,
 }
 
 /// What a fresh certificate offers a re-check: the origin of its plane, its
@@ -156,6 +161,8 @@ pub struct LoopPairs {
     pub pairs: Vec<[u32; 2]>,
     /// Extent of the projected contour.
     pub extent: f64,
+    /// Edges of the first loop where the contour is two loops ([`Recheck::split`]).
+    pub split: Option<u32>,
 }
 
 impl Kept {
@@ -342,6 +349,7 @@ impl KeptCertificates {
                     start,
                     len,
                     within: r.within,
+                    split: r.split,
                 })
             });
             self.live_pairs += k.recheck.map_or(0, |r| r.len as usize);
@@ -460,6 +468,7 @@ impl Reuse<'_> {
             origin: r.origin,
             pairs: r.pairs,
             within: self.cap * (1.0 - 1e-9) - 1e-9 * r.extent - spread,
+            split: r.split,
         });
         let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
         if left > 0.0 || within > 0.0 {
@@ -505,6 +514,7 @@ mod tests {
                     origin: DVec3::ZERO,
                     pairs: pairs.clone(),
                     within: 0.5 + round as f64, // each remade one holds for more
+                    split: None,
                 };
                 (key, kept, Some(recheck))
             };

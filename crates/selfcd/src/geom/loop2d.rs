@@ -364,19 +364,20 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
     if segs.len() < 3 || !one_cycle(segs, &mut scratch.next, &mut scratch.cycle) {
         return None;
     }
-    let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
-    let ext2 = extent2(segs);
-    let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
-    (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
+    ccw_extent2(segs)
 }
 
-/// The pairs of edges of a loop whose boxes, grown by `pad` (>= 0) on every
-/// side, meet: every pair closer than `2 pad`, ids into `segs`, into `out`
-/// (cleared). While no vertex moves `pad` or more (any common translation
-/// removed), no other pair can meet, so re-testing these
-/// ([`loop_still_simple`]) decides whether a loop that was simple still is.
-/// Returns the loop's extent, or None (and `out` unusable) for non-finite
-/// coordinates.
+/// The pairs of edges of a loop that a move of every vertex by less than
+/// `pad` (>= 0) could make meet, ids into `segs`, into `out` (cleared):
+/// those whose boxes, grown by `pad` on every side, meet (closer than
+/// `2 pad`), less those whose slack ([`pair_slack`]: how far each end may
+/// move with the pair staying clear, in exact arithmetic) is at least `pad`.
+/// That drops most pairs of consecutive edges, which share a vertex, so
+/// their boxes always meet, but turn by far less than a straight run allows.
+/// While no vertex moves `pad` or more (any common translation removed), no
+/// other pair can meet, so re-testing these ([`loop_still_simple`]) decides
+/// whether a loop that was simple still is. Returns the loop's extent, or
+/// None (and `out` unusable) for non-finite coordinates.
 pub fn close_pairs(
     segs: &[Seg],
     pad: f64,
@@ -384,6 +385,8 @@ pub fn close_pairs(
     out: &mut Vec<[u32; 2]>,
 ) -> Option<f64> {
     out.clear();
+    let ext2 = extent2(segs);
+    let (eps, extent) = (1e-12 * ext2, ext2.sqrt());
     let cell = std::cell::RefCell::new(std::mem::take(out));
     let ok = pairs_clear(
         segs,
@@ -391,13 +394,16 @@ pub fn close_pairs(
         None,
         pad,
         |i, j| {
-            cell.borrow_mut().push([i as u32, j as u32]);
+            // (A pair not clear now has a negative slack: kept.)
+            if !(pair_slack(&segs[i], &segs[j], eps, extent) >= pad) {
+                cell.borrow_mut().push([i as u32, j as u32]);
+            }
             true
         },
         scratch,
     );
     *out = cell.into_inner();
-    ok.then(|| extent2(segs).sqrt())
+    ok.then_some(extent)
 }
 
 /// Is the loop of `segs` simple and counter-clockwise, given that it was
@@ -408,13 +414,37 @@ pub fn close_pairs(
 /// the last on `pairs` only: exact, at the cost of one pass over the edges
 /// and the pairs (no cycle walk, no sweep).
 pub fn loop_still_simple(segs: &[Seg], pairs: &[[u32; 2]]) -> bool {
+    ccw_extent2(segs).is_some_and(|ext2| pairs_still_clear(segs, pairs, 1e-12 * ext2))
+}
+
+/// [`loop_still_simple`] for the two loops of [`loops_meet_only_where_shared`]:
+/// `segs` holds the first loop's `split` edges, then the second's, and
+/// `pairs` (ids into `segs`) are the [`close_pairs`] of that list when the
+/// loops were simple, counter-clockwise and met only where shared, with
+/// neither inside the other. Those conditions hold now if each loop is still
+/// counter-clockwise, the close pairs are clear, and neither loop is inside
+/// the other (a pair farther apart than `2 pad` cannot have met).
+pub fn loops_still_meet_only_where_shared(segs: &[Seg], split: usize, pairs: &[[u32; 2]]) -> bool {
+    let Some((a, b)) = (split <= segs.len()).then(|| segs.split_at(split)) else {
+        return false;
+    };
+    let (Some(ea), Some(eb)) = (ccw_extent2(a), ccw_extent2(b)) else {
+        return false;
+    };
+    pairs_still_clear(segs, pairs, 1e-12 * ea.max(eb)) && neither_inside(a, b)
+}
+
+/// The squared extent of the loop of `segs` when its signed area is
+/// positive (as [`one_ccw_cycle`] asks), else None.
+fn ccw_extent2(segs: &[Seg]) -> Option<f64> {
     let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
     let ext2 = extent2(segs);
     let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
-    if !(ext2 >= MIN_SCALE2 && positive) {
-        return false;
-    }
-    let eps = 1e-12 * ext2;
+    (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
+}
+
+/// Every pair of `pairs` (ids into `segs`) [`edges_clear`] with margin `eps`.
+fn pairs_still_clear(segs: &[Seg], pairs: &[[u32; 2]], eps: f64) -> bool {
     pairs.iter().all(
         |&[i, j]| match (segs.get(i as usize), segs.get(j as usize)) {
             (Some(a), Some(b)) => edges_clear(a, b, eps),
@@ -1018,6 +1048,40 @@ mod tests {
                 .collect();
             let full = simple_ccw_loop(&moved, &mut scratch);
             assert_eq!(loop_still_simple(&moved, &pairs), full, "round {round}");
+            same += full as u32;
+            broken += !full as u32;
+        }
+        assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
+    }
+
+    /// Two loops pinched at a vertex, moved by less than the pad: their
+    /// close pairs (of the list of both) decide as the full tests do, whether
+    /// the move keeps them apart or not: a square and a quad touching it at
+    /// a corner, one of the quad's vertices `g` above the square's top edge.
+    #[test]
+    fn close_pairs_decide_two_loops_moved_less_than_the_pad() {
+        let mut rng = crate::scene::SplitMix::new(5);
+        let mut scratch = LoopScratch::default();
+        let (mut same, mut broken) = (0, 0);
+        let a = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
+        for round in 0..800 {
+            let g = [0.002, 0.02, 0.1, 0.3][round % 4];
+            let b = loop_of(
+                &[[1., 1.], [2., 1.], [2., 2.], [1.2, 1. + g]],
+                &[2, 4, 5, 6],
+            );
+            assert!(loops_meet_only_where_shared(&a, &b, &mut scratch));
+            let both: Vec<Seg> = a.iter().chain(&b).copied().collect();
+            let pad = [0.01, 0.05, 0.1, 0.3][(round / 4) % 4];
+            let mut pairs = Vec::new();
+            assert!(close_pairs(&both, pad, &mut scratch, &mut pairs).is_some());
+            let moved = jiggle(&both, 0.999 * pad, &mut rng);
+            let (ma, mb) = moved.split_at(a.len());
+            let full = simple_ccw_loop(ma, &mut scratch)
+                && simple_ccw_loop(mb, &mut scratch)
+                && loops_meet_only_where_shared(ma, mb, &mut scratch);
+            let kept = loops_still_meet_only_where_shared(&moved, a.len(), &pairs);
+            assert_eq!(kept, full, "round {round}");
             same += full as u32;
             broken += !full as u32;
         }
