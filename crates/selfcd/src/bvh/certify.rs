@@ -30,13 +30,12 @@
 //! displacement bounds show still holds.
 
 use super::kept::{LoopPairs, Reuse};
-use super::patch::{count_common, have_common, merge_contours, project_contour, Patches};
+use super::patch::{count_common, have_common, merge_contours, project_contour, unpack, Patches};
 use super::Bvh;
 use crate::geom::loop2d::{
-    close_pairs, loop_still_simple, loops_meet_only_where_shared,
-    loops_meet_only_where_shared_slack, loops_still_meet_only_where_shared, simple_ccw_loop,
-    simple_ccw_loop_slack, star_about, star_slack, swept_simple_ccw_loop, swept_star_about,
-    LoopScratch, Plane, Seg,
+    close_pairs, is_ccw, loops_meet_only_where_shared, loops_meet_only_where_shared_slack,
+    simple_ccw_loop, simple_ccw_loop_slack, star_about, star_slack, still_clear,
+    swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
 };
 use crate::geom::NormalCone;
 use crate::mesh::Mesh;
@@ -223,7 +222,8 @@ impl<'a> ContourCull<'a> {
     /// A kept certificate of node `a` (`a == b`) or of the union of `a` and
     /// `b` that still holds: both cones within 90 degrees of its axis, and
     /// this frame's spread within its slack, or within its re-check's reach
-    /// with the contour's close pairs still clear ([`loop_still_simple`]).
+    /// with the close pairs that spread reaches still clear ([`still_clear`]:
+    /// only those pairs' edges are projected).
     fn reused(&self, r: &Reuse, a: u32, b: u32, s: &mut ContourScratch) -> Option<Reused> {
         let (k, spread) = r.get(a, b)?;
         let cones = &self.bvh.cones;
@@ -235,50 +235,69 @@ impl<'a> ContourCull<'a> {
         }
         let check = k.recheck.filter(|c| spread <= c.within)?;
         let plane = Plane::new(k.axis, check.origin);
-        let p = &self.bvh.patches;
-        let ok = if let Some(split) = check.split {
-            // Two loops touching at vertices: `a`'s edges, then `b`'s.
-            let (mesh, x) = (self.mesh, self.positions);
-            project_contour(mesh, x, p.contour_of(a), &plane, &mut s.segs);
-            project_contour(mesh, x, p.contour_of(b), &plane, &mut s.segs_b);
-            s.segs.extend_from_slice(&s.segs_b);
-            loops_still_meet_only_where_shared(&s.segs, split as usize, r.pairs(&check))
-        } else {
-            let mut merged = std::mem::take(&mut s.merged);
-            let contour = if a == b {
-                p.contour_of(a)
-            } else {
-                // A union glued along edges: the same merged contour.
-                union_disk(p, a, b, &mut merged);
-                &merged
-            };
-            project_contour(self.mesh, self.positions, contour, &plane, &mut s.segs);
-            s.merged = merged;
-            loop_still_simple(&s.segs, r.pairs(&check))
+        let (mesh, x) = (self.mesh, self.positions);
+        let seg = |packed: u32| {
+            let v = unpack(mesh, packed);
+            let p = v.map(|v| x.get(v as usize).map(|&q| plane.project(q)));
+            Some(Seg {
+                p: [p[0]?, p[1]?],
+                v,
+            })
         };
+        let ok = still_clear(r.pairs(&check), spread, check.eps, seg)
+            && (spread <= check.area_within || self.loops_ccw(a, b, &plane, s));
         ok.then_some(Reused::Rechecked)
     }
 
-    /// The contour's close pairs for a re-check of the certificate just made
-    /// from its projection in `segs` on `plane` (with `split`: two loops,
-    /// the first's `split` edges in `segs`, the second's in `segs_b`).
+    /// Are the contour loops of node `a` (`a == b`) or of the union of `a`
+    /// and `b` (one loop when glued along edges, else each patch's)
+    /// counter-clockwise, projected on `plane`?
+    fn loops_ccw(&self, a: u32, b: u32, plane: &Plane, s: &mut ContourScratch) -> bool {
+        let (p, mesh, x) = (&self.bvh.patches, self.mesh, self.positions);
+        let ccw = |contour: &[u32], segs: &mut Vec<Seg>| {
+            project_contour(mesh, x, contour, plane, segs);
+            is_ccw(segs)
+        };
+        if a == b {
+            return ccw(p.contour_of(a), &mut s.segs);
+        }
+        let mut merged = std::mem::take(&mut s.merged);
+        let ok = match union_disk(p, a, b, &mut merged) {
+            Some(true) => ccw(&merged, &mut s.segs),
+            Some(false) => ccw(p.contour_of(a), &mut s.segs) && ccw(p.contour_of(b), &mut s.segs),
+            None => false,
+        };
+        s.merged = merged;
+        ok
+    }
+
+    /// What re-checks the certificate just made from the projection in
+    /// `segs` (on `plane`) of `contour`, or, for two loops, of contour `a`
+    /// in `segs` and `b` in `segs_b`: their close pairs, as packed contour
+    /// edges, and their reach.
     fn loop_pairs(
         &self,
         r: &Reuse,
         plane: &Plane,
-        split: Option<u32>,
+        (a, b): (&[u32], &[u32]),
         s: &mut ContourScratch,
     ) -> Option<LoopPairs> {
-        if split.is_some() {
+        if !b.is_empty() {
             s.segs.extend_from_slice(&s.segs_b);
         }
         let mut pairs = Vec::new();
-        let extent = close_pairs(&s.segs, r.cap(), &mut s.loops, &mut pairs)?;
+        let reach = close_pairs(&s.segs, a.len(), r.cap(), &mut s.loops, &mut pairs)?;
+        let packed = |i: u32| {
+            let i = i as usize;
+            a.get(i).or_else(|| b.get(i - a.len())).copied()
+        };
+        for c in &mut pairs {
+            c.edges = [packed(c.edges[0])?, packed(c.edges[1])?];
+        }
         Some(LoopPairs {
             origin: plane.origin(),
             pairs,
-            extent,
-            split,
+            reach,
         })
     }
 
@@ -300,7 +319,9 @@ impl<'a> ContourCull<'a> {
             &mut s.loops,
         );
         // (The close pairs are found only where they may pay: `record`.)
-        r.record((a, b), axis, slack, || self.loop_pairs(r, plane, None, s))
+        r.record((a, b), axis, slack, || {
+            self.loop_pairs(r, plane, (contour, &[]), s)
+        })
     }
 
     /// Is the union of adjacent disjoint patches a and b a height field along
@@ -349,9 +370,8 @@ impl<'a> ContourCull<'a> {
                 let sab = loops_meet_only_where_shared_slack(segs, segs_b, loops, cap)?;
                 Some(sa.min(sb).min(sab))
             });
-        let split = u32::try_from(ka.len()).ok();
         r.record((a, b), axis, slack, || {
-            split.and_then(|k| self.loop_pairs(r, &plane, Some(k), s))
+            self.loop_pairs(r, &plane, (ka, kb), s)
         })
     }
 }

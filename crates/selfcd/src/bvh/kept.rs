@@ -41,16 +41,20 @@
 //! so it is small (about a fiftieth of an edge on a crumpled sheet), and a
 //! smooth motion of a tenth of an edge exceeds it while the projected loop
 //! stays simple (99-99.8% of the refused certificates on the peer
-//! benchmark's wave, BENCHMARKS.md). So a certificate whose contour was one
-//! loop also keeps the plane it was projected on and the contour's edge
-//! pairs that were closer than twice the cap ([`close_pairs`](crate::geom::loop2d::close_pairs)).
-//! While the spread (this frame's plus the one at certification) stays under
-//! the cap, no other pair can have met, so projecting the contour again and
-//! re-testing those pairs exactly, with the signed area, decides whether the
-//! loop is still simple and counter-clockwise
-//! ([`loop_still_simple`](crate::geom::loop2d::loop_still_simple)): the
-//! theorem's conditions, at the cost of one pass over the contour and its
-//! close pairs, without a fresh test's cycle walk and sweep.
+//! benchmark's wave, BENCHMARKS.md). So a certificate also keeps the plane
+//! it was projected on and its contour's edge pairs that a move below the
+//! cap could make meet, each with its own slack
+//! ([`close_pairs`](crate::geom::loop2d::close_pairs): pairs closer than
+//! twice the cap whose slack is below it), and how far the vertices may
+//! move with the other conditions of the test holding (the signed areas
+//! stay positive; with two loops touching at vertices, a vertex of each
+//! outside the other stays outside). While the spread (this frame's plus
+//! the one at certification) stays under that reach, the certificate holds
+//! exactly when the pairs whose slack the spread reaches are clear now
+//! ([`still_clear`](crate::geom::loop2d::still_clear)): the theorem's
+//! conditions, at the cost of projecting and comparing those pairs only,
+//! without a fresh test's cycle walk and sweep or even the projection of
+//! the whole contour.
 //!
 //! The reference is reset (and every certificate dropped) when the whole
 //! mesh's displacement spread exceeds [`RESET`] times the loop test's cap on
@@ -61,6 +65,7 @@
 //! instead of fitting the nodes' boxes: fast motion pays that pass only.
 
 use super::Bvh;
+use crate::geom::loop2d::{round_down, ClosePair, Reach};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use glam::DVec3;
@@ -135,19 +140,21 @@ pub struct Recheck {
     pub len: u32,
     /// The spread up to which the close pairs decide.
     pub within: f64,
-    /// For a union of two patches touching only at vertices, the number of
-    /// edges of the first (`a`'s) contour: the pairs then number the edges
-    /// of `a`'s contour then `b`'s. None for one loop.
-    pub split: Option<u32>,
+    /// The spread up to which the signed areas stay positive (beyond it
+    /// they are measured).
+    pub area_within: f64,
+    /// The margin of the pairs' tests ([`Reach::eps`]).
+    pub eps: f64,
 }
 
 /// A fresh certificate's re-check data before it is stored.
 #[derive(Debug, Clone)]
 struct FreshRecheck {
     origin: DVec3,
-    pairs: Vec<[u32; 2]>,
+    pairs: Vec<ClosePair>,
     within: f64,
-    split: Option<u32>,
+    area_within: f64,
+    eps: f64,
 }
 
 /// What a fresh certificate offers a re-check: the origin of its plane, its
@@ -157,12 +164,11 @@ struct FreshRecheck {
 pub struct LoopPairs {
     /// Origin of the projection plane.
     pub origin: DVec3,
-    /// The close pairs (ids into the contour's edges).
-    pub pairs: Vec<[u32; 2]>,
-    /// Extent of the projected contour.
-    pub extent: f64,
-    /// Edges of the first loop where the contour is two loops ([`Recheck::split`]).
-    pub split: Option<u32>,
+    /// The close pairs, their edges as packed contour edges
+    /// ([`crate::bvh::patch::pack`]), sorted by slack.
+    pub pairs: Vec<ClosePair>,
+    /// The move below which they decide.
+    pub reach: Reach,
 }
 
 impl Kept {
@@ -189,7 +195,7 @@ pub struct KeptCertificates {
     kept: FxHashMap<u64, Kept>,
     /// The close pairs of every kept re-check ([`Recheck`]); those of
     /// replaced certificates stay until the store is compacted ([`keep`](Self::keep)).
-    pairs: Vec<[u32; 2]>,
+    pairs: Vec<ClosePair>,
     /// How many of `pairs` kept certificates refer to.
     live_pairs: usize,
     /// Displacement box of every node this frame, or of the whole mesh only
@@ -349,7 +355,8 @@ impl KeptCertificates {
                     start,
                     len,
                     within: r.within,
-                    split: r.split,
+                    area_within: r.area_within,
+                    eps: r.eps,
                 })
             });
             self.live_pairs += k.recheck.map_or(0, |r| r.len as usize);
@@ -402,7 +409,7 @@ impl KeptCertificates {
 /// One frame's view of the kept certificates, for [`super::certify::ContourCull`].
 pub struct Reuse<'a> {
     kept: &'a FxHashMap<u64, Kept>,
-    pairs: &'a [[u32; 2]],
+    pairs: &'a [ClosePair],
     spread: &'a [Aabb],
     cap: f64,
     fresh: Mutex<Vec<(u64, Kept, Option<FreshRecheck>)>>,
@@ -438,7 +445,7 @@ impl Reuse<'_> {
     }
 
     /// The close pairs of a kept re-check.
-    pub fn pairs(&self, r: &Recheck) -> &[[u32; 2]] {
+    pub fn pairs(&self, r: &Recheck) -> &[ClosePair] {
         let start = r.start as usize;
         &self.pairs[start..start + r.len as usize]
     }
@@ -461,14 +468,19 @@ impl Reuse<'_> {
         let spread = self.spread(a, b, axis);
         let left = slack - spread;
         let recheck = (spread <= RECHECK_SPREAD * self.cap).then(close).flatten();
-        // No vertex moved `cap` or more since the pairs were found: the
-        // spread now plus the spread then below the cap, less the rounding
-        // margin of the projection (as the slacks' own).
+        // The pairs' slacks and the reach bound the move since now; less the
+        // spread now, they bound the spread of a later frame (module doc).
         let recheck = recheck.map(|r| FreshRecheck {
             origin: r.origin,
-            pairs: r.pairs,
-            within: self.cap * (1.0 - 1e-9) - 1e-9 * r.extent - spread,
-            split: r.split,
+            pairs: (r.pairs.iter())
+                .map(|c| ClosePair {
+                    slack: round_down(c.slack as f64 - spread),
+                    ..*c
+                })
+                .collect(),
+            within: r.reach.moved - spread,
+            area_within: r.reach.area - spread,
+            eps: r.reach.eps,
         });
         let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
         if left > 0.0 || within > 0.0 {
@@ -503,7 +515,12 @@ mod tests {
     fn the_close_pair_store_is_compacted() {
         let mut store = KeptCertificates::new(1.0);
         let fresh = |round: u32| {
-            let pairs: Vec<[u32; 2]> = (0..10).map(|i| [round, i]).collect();
+            let pairs: Vec<ClosePair> = (0..10)
+                .map(|i| ClosePair {
+                    edges: [round, i],
+                    slack: 0.0,
+                })
+                .collect();
             let certificate = |key: u64| {
                 let kept = Kept {
                     axis: DVec3::Z,
@@ -514,7 +531,8 @@ mod tests {
                     origin: DVec3::ZERO,
                     pairs: pairs.clone(),
                     within: 0.5 + round as f64, // each remade one holds for more
-                    split: None,
+                    area_within: 0.0,
+                    eps: 0.0,
                 };
                 (key, kept, Some(recheck))
             };
@@ -531,7 +549,8 @@ mod tests {
         for k in store.kept.values() {
             let r = k.recheck.unwrap();
             let pairs = &store.pairs[r.start as usize..(r.start + r.len) as usize];
-            assert_eq!(pairs, (0..10).map(|i| [1999, i]).collect::<Vec<_>>());
+            let edges: Vec<[u32; 2]> = pairs.iter().map(|c| c.edges).collect();
+            assert_eq!(edges, (0..10).map(|i| [1999, i]).collect::<Vec<_>>());
         }
     }
 

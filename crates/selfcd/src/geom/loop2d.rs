@@ -367,23 +367,60 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
     ccw_extent2(segs)
 }
 
-/// The pairs of edges of a loop that a move of every vertex by less than
-/// `pad` (>= 0) could make meet, ids into `segs`, into `out` (cleared):
-/// those whose boxes, grown by `pad` on every side, meet (closer than
-/// `2 pad`), less those whose slack ([`pair_slack`]: how far each end may
-/// move with the pair staying clear, in exact arithmetic) is at least `pad`.
-/// That drops most pairs of consecutive edges, which share a vertex, so
-/// their boxes always meet, but turn by far less than a straight run allows.
-/// While no vertex moves `pad` or more (any common translation removed), no
-/// other pair can meet, so re-testing these ([`loop_still_simple`]) decides
-/// whether a loop that was simple still is. Returns the loop's extent, or
-/// None (and `out` unusable) for non-finite coordinates.
+/// A pair of contour edges a re-check compares ([`close_pairs`]): the
+/// edges' ids and the pair's slack ([`pair_slack`], rounded down), the move
+/// below which it certainly stays clear.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosePair {
+    /// Edge ids: into the tested list, or whatever the holder maps them to.
+    pub edges: [u32; 2],
+    /// How far every vertex may move with the pair staying clear.
+    pub slack: f32,
+}
+
+/// What re-checks loops that passed their test after their vertices moved
+/// ([`close_pairs`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Reach {
+    /// The move (of every vertex, any common translation removed) below
+    /// which the close pairs decide.
+    pub moved: f64,
+    /// The move (at most `moved`) below which the loops' signed areas
+    /// certainly stay positive; beyond it (and below `moved`) they must be
+    /// measured again ([`is_ccw`]).
+    pub area: f64,
+    /// The margin [`still_clear`] compares with: above the rounding of the
+    /// edges' orientations at any move below `moved`.
+    pub eps: f64,
+}
+
+/// For loops that just passed their test, `segs` holding one loop, or two
+/// (the first's `split` edges, then the second's): the pairs of edges that
+/// a move of every vertex (any common translation removed) by less than
+/// `pad` could make meet, into `out` (cleared) sorted by slack, and the
+/// move below which they decide ([`Reach`]).
+///
+/// A pair is listed when its boxes, grown by `pad` on every side, meet
+/// (closer than `2 pad`) and its slack is below `pad`; the others stay clear
+/// below `pad`. Below [`Reach::moved`] (at most `pad`) the other conditions
+/// of the tests hold as well: with two loops, a vertex of each found outside
+/// the other (as [`loops_meet_only_where_shared`] asks) stays outside while
+/// it moves less than half its distance to the other (it cannot cross the
+/// other loop on the straight way there); and a loop's signed area stays
+/// positive below [`Reach::area`] (it changes by at most `2 d L + m d^2`
+/// for a move `d`, perimeter `L` and `m` edges), or else must be measured.
+/// So the loops still pass while the listed pairs whose slack the move
+/// reaches are clear ([`still_clear`]), and their areas are positive: one
+/// pass over those pairs (and, beyond `area`, over the edges), without the
+/// cycle walk and sweep of a test.
+/// None for non-finite coordinates, or loops with no room to move.
 pub fn close_pairs(
     segs: &[Seg],
+    split: usize,
     pad: f64,
     scratch: &mut LoopScratch,
-    out: &mut Vec<[u32; 2]>,
-) -> Option<f64> {
+    out: &mut Vec<ClosePair>,
+) -> Option<Reach> {
     out.clear();
     let ext2 = extent2(segs);
     let (eps, extent) = (1e-12 * ext2, ext2.sqrt());
@@ -394,44 +431,113 @@ pub fn close_pairs(
         None,
         pad,
         |i, j| {
-            // (A pair not clear now has a negative slack: kept.)
-            if !(pair_slack(&segs[i], &segs[j], eps, extent) >= pad) {
-                cell.borrow_mut().push([i as u32, j as u32]);
+            // (A pair not clear now has a negative slack: listed.)
+            let slack = pair_slack(&segs[i], &segs[j], eps, extent);
+            if !(slack >= pad) {
+                let slack = round_down(slack.max(-1.0));
+                let edges = [i as u32, j as u32];
+                cell.borrow_mut().push(ClosePair { edges, slack });
             }
             true
         },
         scratch,
     );
     *out = cell.into_inner();
-    ok.then_some(extent)
+    out.sort_unstable_by(|a, b| a.slack.total_cmp(&b.slack));
+    let (a, b) = segs.split_at(split.min(segs.len()));
+    let (mut moved, mut area) = (pad, area_reach(a, pad));
+    if !b.is_empty() {
+        area = area.min(area_reach(b, pad));
+        moved = moved.min(outside_reach(a, b)?).min(outside_reach(b, a)?);
+    }
+    // Less the rounding margin of the projection (as the slacks').
+    let margin = |d: f64| d * (1.0 - 1e-9) - 1e-9 * extent;
+    let (moved, area) = (margin(moved), margin(area).min(moved));
+    let grown = extent + 3.0 * moved;
+    (ok && moved > 0.0).then_some(Reach {
+        moved,
+        area,
+        eps: 1e-12 * grown * grown,
+    })
 }
 
-/// Is the loop of `segs` simple and counter-clockwise, given that it was
-/// when `pairs` were its [`close_pairs`] within `pad`, and that no vertex
-/// has moved `pad` or more since (common translation removed)? The
-/// conditions of [`simple_ccw_loop`] (one cycle: the same directed edges;
-/// positive signed area; no two edges meet but where the mesh joins them),
-/// the last on `pairs` only: exact, at the cost of one pass over the edges
-/// and the pairs (no cycle walk, no sweep).
-pub fn loop_still_simple(segs: &[Seg], pairs: &[[u32; 2]]) -> bool {
-    ccw_extent2(segs).is_some_and(|ext2| pairs_still_clear(segs, pairs, 1e-12 * ext2))
+/// `x` as an `f32` no larger than `x`.
+pub fn round_down(x: f64) -> f32 {
+    let y = x as f32;
+    if y as f64 > x {
+        y.next_down()
+    } else {
+        y
+    }
 }
 
-/// [`loop_still_simple`] for the two loops of [`loops_meet_only_where_shared`]:
-/// `segs` holds the first loop's `split` edges, then the second's, and
-/// `pairs` (ids into `segs`) are the [`close_pairs`] of that list when the
-/// loops were simple, counter-clockwise and met only where shared, with
-/// neither inside the other. Those conditions hold now if each loop is still
-/// counter-clockwise, the close pairs are clear, and neither loop is inside
-/// the other (a pair farther apart than `2 pad` cannot have met).
-pub fn loops_still_meet_only_where_shared(segs: &[Seg], split: usize, pairs: &[[u32; 2]]) -> bool {
-    let Some((a, b)) = (split <= segs.len()).then(|| segs.split_at(split)) else {
-        return false;
-    };
-    let (Some(ea), Some(eb)) = (ccw_extent2(a), ccw_extent2(b)) else {
-        return false;
-    };
-    pairs_still_clear(segs, pairs, 1e-12 * ea.max(eb)) && neither_inside(a, b)
+/// A move (at most `pad`) below which the loop of `segs`, counter-clockwise
+/// now, keeps a signed area above [`ccw_extent2`]'s margin in exact
+/// arithmetic: with twice the area `A`, perimeter `L`, `m` edges and extent
+/// `E`, a move `d <= pad` changes `A` by at most `2 d L + m d^2 <= d (2 L +
+/// m pad)` and grows the extent by at most `3 d`, so `A - d (2 L + m pad) >
+/// 2e-9 (E + 3 d)^2` (the test's margin and the rounding of `A`) suffices;
+/// the extent must also stay above the tests' smallest scale. 0 when none.
+fn area_reach(segs: &[Seg], pad: f64) -> f64 {
+    let area2: f64 = segs.iter().map(|s| cross(s.p[0], s.p[1])).sum();
+    let perimeter: f64 = segs
+        .iter()
+        .map(|s| len([s.p[1][0] - s.p[0][0], s.p[1][1] - s.p[0][1]]))
+        .sum();
+    let e = extent2(segs).sqrt();
+    let m = segs.len() as f64;
+    let room = area2 - 2e-9 * e * e;
+    let per_move = (2.0 * perimeter + m * pad) * (1.0 + 1e-9) + 2e-9 * (6.0 * e + 9.0 * pad);
+    let d = (room / per_move).min((e - MIN_SCALE2.sqrt()) / 3.0) * (1.0 - 1e-9);
+    if d > 0.0 {
+        d
+    } else {
+        0.0
+    }
+}
+
+/// A move below which the vertex of loop `a` that [`neither_inside`] finds
+/// outside loop `b` stays outside: half its distance to `b` (both may move,
+/// so the gap closes by at most twice the move). None when there is no such
+/// vertex.
+fn outside_reach(a: &[Seg], b: &[Seg]) -> Option<f64> {
+    let on_b = |v: u32| b.iter().any(|e| e.v[0] == v);
+    let w = a.iter().find(|e| !on_b(e.v[0]))?.p[0];
+    if inside(w, b) {
+        return None;
+    }
+    let gap = b
+        .iter()
+        .map(|e| point_seg_distance(w, e))
+        .fold(f64::INFINITY, f64::min);
+    Some(0.5 * gap)
+}
+
+/// Do loops that passed their test still pass, every vertex having moved
+/// (any common translation removed) by less than their [`Reach::area`]
+/// and by at most `moved`? Exactly when their [`close_pairs`] (sorted by
+/// slack) whose slack `moved` reaches are clear now, with margin `eps`
+/// ([`Reach::eps`]), `seg` giving each edge (by id) as it is now. (Between
+/// `Reach::area` and `Reach::moved`, when also each loop [`is_ccw`].)
+pub fn still_clear(
+    pairs: &[ClosePair],
+    moved: f64,
+    eps: f64,
+    seg: impl Fn(u32) -> Option<Seg>,
+) -> bool {
+    pairs
+        .iter()
+        .take_while(|c| !(moved < c.slack as f64))
+        .all(|c| match (seg(c.edges[0]), seg(c.edges[1])) {
+            (Some(a), Some(b)) => edges_clear(&a, &b, eps),
+            _ => false,
+        })
+}
+
+/// Is the loop of `segs` counter-clockwise (its signed area positive, with
+/// the margin of the loop tests)?
+pub fn is_ccw(segs: &[Seg]) -> bool {
+    ccw_extent2(segs).is_some()
 }
 
 /// The squared extent of the loop of `segs` when its signed area is
@@ -441,16 +547,6 @@ fn ccw_extent2(segs: &[Seg]) -> Option<f64> {
     let ext2 = extent2(segs);
     let positive = area2.partial_cmp(&(1e-9 * ext2)) == Some(std::cmp::Ordering::Greater);
     (ext2 >= MIN_SCALE2 && positive).then_some(ext2)
-}
-
-/// Every pair of `pairs` (ids into `segs`) [`edges_clear`] with margin `eps`.
-fn pairs_still_clear(segs: &[Seg], pairs: &[[u32; 2]], eps: f64) -> bool {
-    pairs.iter().all(
-        |&[i, j]| match (segs.get(i as usize), segs.get(j as usize)) {
-            (Some(a), Some(b)) => edges_clear(a, b, eps),
-            _ => false,
-        },
-    )
 }
 
 /// [`simple_ccw_loop`], and when it passes, how far (at most `cap`) the
@@ -552,22 +648,25 @@ fn adjacent_slack(da: [f64; 2], db: [f64; 2], extent: f64) -> f64 {
 /// is a few ulps of the extent, which the slack's margin covers; the general
 /// solve's rounding near parallel segments is not bounded there.)
 fn seg_distance(a: &Seg, b: &Seg) -> f64 {
-    let to = |p: [f64; 2], s: &Seg| {
-        let [q, r] = s.p;
-        let d = [r[0] - q[0], r[1] - q[1]];
-        let w = [p[0] - q[0], p[1] - q[1]];
-        let d2 = len2(d);
-        let t = if d2 > 0.0 {
-            (dot(w, d) / d2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        len([w[0] - t * d[0], w[1] - t * d[1]])
+    point_seg_distance(a.p[0], b)
+        .min(point_seg_distance(a.p[1], b))
+        .min(point_seg_distance(b.p[0], a))
+        .min(point_seg_distance(b.p[1], a))
+}
+
+/// Distance from `p` to segment `s` (rounding: a few ulps of the extent,
+/// as [`seg_distance`]'s).
+fn point_seg_distance(p: [f64; 2], s: &Seg) -> f64 {
+    let [q, r] = s.p;
+    let d = [r[0] - q[0], r[1] - q[1]];
+    let w = [p[0] - q[0], p[1] - q[1]];
+    let d2 = len2(d);
+    let t = if d2 > 0.0 {
+        (dot(w, d) / d2).clamp(0.0, 1.0)
+    } else {
+        0.0
     };
-    to(a.p[0], b)
-        .min(to(a.p[1], b))
-        .min(to(b.p[0], a))
-        .min(to(b.p[1], a))
+    len([w[0] - t * d[0], w[1] - t * d[1]])
 }
 
 /// Is the projected contour one simple counter-clockwise loop at every time
@@ -1014,7 +1113,7 @@ mod tests {
     /// Moved by less than the pad, a loop is simple and counter-clockwise by
     /// its close pairs exactly when it is by the full test, whether the move
     /// keeps it simple or not: U-shaped loops with slots of several widths
-    /// and zig-zag edges, jiggled by up to 0.999 of the pad (a common
+    /// and zig-zag edges, jiggled by up to 0.999 of their reach (a common
     /// translation added, which changes nothing).
     #[test]
     fn close_pairs_decide_a_loop_moved_less_than_the_pad() {
@@ -1037,9 +1136,14 @@ mod tests {
             assert!(simple_ccw_loop(&segs, &mut scratch), "round {round}");
             let pad = [0.001, 0.01, 0.1, 0.3][(round / 4) % 4];
             let mut pairs = Vec::new();
-            assert!(close_pairs(&segs, pad, &mut scratch, &mut pairs).is_some());
+            let reach = close_pairs(&segs, segs.len(), pad, &mut scratch, &mut pairs).unwrap();
+            assert!(
+                reach.moved <= pad && reach.moved > 0.5 * pad.min(0.05),
+                "{round}"
+            );
+            let r = 0.999 * reach.moved;
             let t = [rng.unit() * 5.0, rng.unit() * 5.0];
-            let moved: Vec<Seg> = jiggle(&segs, 0.999 * pad, &mut rng)
+            let moved: Vec<Seg> = jiggle(&segs, r, &mut rng)
                 .iter()
                 .map(|s| Seg {
                     p: s.p.map(|q| [q[0] + t[0], q[1] + t[1]]),
@@ -1047,14 +1151,16 @@ mod tests {
                 })
                 .collect();
             let full = simple_ccw_loop(&moved, &mut scratch);
-            assert_eq!(loop_still_simple(&moved, &pairs), full, "round {round}");
+            let seg = |i: u32| moved.get(i as usize).copied();
+            let kept = still_clear(&pairs, r, reach.eps, seg) && (r < reach.area || is_ccw(&moved));
+            assert_eq!(kept, full, "round {round}");
             same += full as u32;
             broken += !full as u32;
         }
         assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
     }
 
-    /// Two loops pinched at a vertex, moved by less than the pad: their
+    /// Two loops pinched at a vertex, moved by less than their reach: their
     /// close pairs (of the list of both) decide as the full tests do, whether
     /// the move keeps them apart or not: a square and a quad touching it at
     /// a corner, one of the quad's vertices `g` above the square's top edge.
@@ -1074,13 +1180,15 @@ mod tests {
             let both: Vec<Seg> = a.iter().chain(&b).copied().collect();
             let pad = [0.01, 0.05, 0.1, 0.3][(round / 4) % 4];
             let mut pairs = Vec::new();
-            assert!(close_pairs(&both, pad, &mut scratch, &mut pairs).is_some());
-            let moved = jiggle(&both, 0.999 * pad, &mut rng);
+            let reach = close_pairs(&both, a.len(), pad, &mut scratch, &mut pairs).unwrap();
+            let r = 0.999 * reach.moved;
+            let moved = jiggle(&both, r, &mut rng);
             let (ma, mb) = moved.split_at(a.len());
             let full = simple_ccw_loop(ma, &mut scratch)
                 && simple_ccw_loop(mb, &mut scratch)
                 && loops_meet_only_where_shared(ma, mb, &mut scratch);
-            let kept = loops_still_meet_only_where_shared(&moved, a.len(), &pairs);
+            let kept = still_clear(&pairs, r, reach.eps, |i| moved.get(i as usize).copied())
+                && (r < reach.area || is_ccw(ma) && is_ccw(mb));
             assert_eq!(kept, full, "round {round}");
             same += full as u32;
             broken += !full as u32;
