@@ -189,10 +189,16 @@ fn reach(slack: f64, within: Option<f64>) -> f64 {
 #[derive(Debug, Default)]
 pub struct KeptCertificates {
     reference: Vec<DVec3>,
-    /// Key: `a << 32 | b` for the union of nodes a < b, `n << 32 | n` for node n.
-    /// (Fx hashing: the traversal looks up every culled job every frame, and
-    /// the keys are node ids, not input an attacker chooses.)
-    kept: FxHashMap<u64, Kept>,
+    /// The slot in `kept` of each certificate, by key: `a << 32 | b` for the
+    /// union of nodes a < b, `n << 32 | n` for node n. (Fx hashing: the
+    /// traversal looks up every culled job every frame, and the keys are
+    /// node ids, not input an attacker chooses.)
+    slots: FxHashMap<u64, u32>,
+    /// The certificates, in the order they were first made: about the
+    /// order in which a traversal (from the same front) asks for them, so
+    /// that its reads stream, where a map holding them is read at random
+    /// (and a map of slots is small enough to stay in cache).
+    kept: Vec<Kept>,
     /// The close pairs of every kept re-check ([`Recheck`]); those of
     /// replaced certificates stay until the store is compacted ([`keep`](Self::keep)).
     pairs: Vec<ClosePair>,
@@ -323,6 +329,7 @@ impl KeptCertificates {
             self.spread.resize(bvh.n_nodes(), zero);
         }
         Some(Reuse {
+            slots: &self.slots,
             kept: &self.kept,
             pairs: &self.pairs,
             spread: &self.spread,
@@ -343,7 +350,8 @@ impl KeptCertificates {
     pub fn keep(&mut self, fresh: Fresh) {
         for (key, mut k, recheck) in fresh.0 {
             let reach = reach(k.slack, recheck.as_ref().map(|r| r.within));
-            if self.kept.get(&key).is_some_and(|old| reach <= old.reach()) {
+            let slot = self.slots.get(&key).map(|&s| s as usize);
+            if slot.is_some_and(|s| reach <= self.kept[s].reach()) {
                 continue;
             }
             k.recheck = recheck.and_then(|r| {
@@ -360,8 +368,15 @@ impl KeptCertificates {
                 })
             });
             self.live_pairs += k.recheck.map_or(0, |r| r.len as usize);
-            if let Some(old) = self.kept.insert(key, k) {
-                self.live_pairs -= old.recheck.map_or(0, |r| r.len as usize);
+            match slot {
+                Some(s) => {
+                    let old = std::mem::replace(&mut self.kept[s], k);
+                    self.live_pairs -= old.recheck.map_or(0, |r| r.len as usize);
+                }
+                None => {
+                    self.slots.insert(key, self.kept.len() as u32);
+                    self.kept.push(k);
+                }
             }
             if k.slack > 0.0 {
                 self.least_slack = self.least_slack.min(k.slack);
@@ -376,7 +391,7 @@ impl KeptCertificates {
     /// store (in one pass over them) and drops the rest.
     fn compact(&mut self) {
         let mut pairs = Vec::with_capacity(self.live_pairs);
-        for k in self.kept.values_mut() {
+        for k in &mut self.kept {
             if let Some(r) = k.recheck.as_mut() {
                 let (start, len) = (r.start as usize, r.len as usize);
                 r.start = pairs.len() as u32;
@@ -399,6 +414,7 @@ impl KeptCertificates {
     fn reset(&mut self, positions: &[DVec3]) {
         self.reference.clear();
         self.reference.extend_from_slice(positions);
+        self.slots.clear();
         self.kept.clear();
         self.pairs.clear();
         self.live_pairs = 0;
@@ -408,7 +424,8 @@ impl KeptCertificates {
 
 /// One frame's view of the kept certificates, for [`super::certify::ContourCull`].
 pub struct Reuse<'a> {
-    kept: &'a FxHashMap<u64, Kept>,
+    slots: &'a FxHashMap<u64, u32>,
+    kept: &'a [Kept],
     pairs: &'a [ClosePair],
     spread: &'a [Aabb],
     cap: f64,
@@ -440,7 +457,7 @@ impl Reuse<'_> {
     /// taken where there is a certificate).
     #[inline]
     pub fn get(&self, a: u32, b: u32) -> Option<(Kept, f64)> {
-        let k = self.kept.get(&key(a, b))?;
+        let k = &self.kept[*self.slots.get(&key(a, b))? as usize];
         Some((*k, self.spread(a, b, k.axis)))
     }
 
@@ -546,7 +563,7 @@ mod tests {
             );
         }
         assert_eq!(store.live_pairs, 20);
-        for k in store.kept.values() {
+        for k in &store.kept {
             let r = k.recheck.unwrap();
             let pairs = &store.pairs[r.start as usize..(r.start + r.len) as usize];
             let edges: Vec<[u32; 2]> = pairs.iter().map(|c| c.edges).collect();
