@@ -34,8 +34,11 @@
 //! (there are some: a flat sheet's single one, a garment's few), they all
 //! hold, the frame takes it for every node, and the nodes' boxes are not
 //! fitted: one pass over the vertices instead of a second box per triangle
-//! and per node. Certificates made in such a frame store their slack less the
-//! whole mesh's spread, which is larger than their own, so they hold for less.
+//! and per node. The frame takes it too when the certificates it leaves to a
+//! re-check or a fresh test are few enough to cost far less than that fit
+//! (a skirt held by four certificates). Certificates made in such a frame
+//! store their slack less the whole mesh's spread, which is larger than
+//! their own, so they hold for less.
 //!
 //! **Re-check.** A slack bounds independent moves of every contour vertex,
 //! so it is small (about a fiftieth of an edge on a crumpled sheet), and a
@@ -108,6 +111,13 @@ pub(crate) fn fold_moves<T: Copy + Send + Sync>(
     let moves = positions.par_iter().zip(reference);
     moves.fold(|| empty, add).reduce(|| empty, &merge)
 }
+
+/// What a re-checked and a fresh certificate cost, in fits of a node's
+/// displacement box (measured, one thread: the fit of every node's box about
+/// 27 ns a node on skirt_32k; a re-check about 1 us and a fresh test 3 us on
+/// the garments; BENCHMARKS.md).
+const RECHECK: f64 = 37.0;
+const FRESH: f64 = 110.0;
 
 /// Below this many vertices the displacement pass runs on one thread.
 const PAR_MIN: usize = 1 << 14;
@@ -291,9 +301,7 @@ impl KeptCertificates {
         let mut reset = !same || (self.reset_last && !whole.as_ref().is_some_and(settled));
         if reset {
             bvh.refit(mesh, positions);
-        } else if let Some(b) =
-            whole.filter(|b| !self.kept.is_empty() && half_diagonal(b) <= self.least_slack)
-        {
+        } else if let Some(b) = whole.filter(|b| self.whole_pays(half_diagonal(b), bvh.n_nodes())) {
             bvh.refit(mesh, positions);
             self.spread.clear();
             self.spread.push(b);
@@ -399,6 +407,37 @@ impl KeptCertificates {
             }
         }
         self.pairs = pairs;
+    }
+
+    /// Is the whole mesh's displacement spread `h` worth taking for every
+    /// node, instead of fitting the nodes' own (a second refit, about
+    /// one node's fit costs [`RECHECK`] and [`FRESH`] less than a re-check and a fresh test)? Yes when it is within
+    /// the least slack (every certificate holds), or when the certificates
+    /// it puts out of reach (that a node's own spread might have kept) cost
+    /// less to test afresh than the fit.
+    fn whole_pays(&self, h: f64, nodes: usize) -> bool {
+        if self.kept.is_empty() {
+            return false;
+        }
+        if h <= self.least_slack {
+            return true;
+        }
+        let cost: f64 = self
+            .kept
+            .iter()
+            .map(|k| {
+                if h <= k.slack {
+                    0.0
+                } else if h <= k.reach() {
+                    RECHECK
+                } else {
+                    FRESH
+                }
+            })
+            .sum();
+        // (A margin of 4 for the estimate: a whole-mesh spread also leaves
+        // re-checks more pairs, and remade certificates less slack.)
+        4.0 * cost < nodes as f64
     }
 
     /// The box of every vertex's displacement from the reference, in one
