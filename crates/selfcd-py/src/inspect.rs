@@ -75,7 +75,7 @@ impl PyHierarchy {
         py.detach(|| -> PyResult<()> {
             let mut bvh = self.lock()?;
             guard("Hierarchy.refit", || {
-                bvh.refit(&self.mesh, &p, false);
+                bvh.refit(&self.mesh, &p);
                 Ok(())
             })
         })

@@ -42,7 +42,7 @@ fn bench_build_refit(c: &mut Criterion) {
         let mut bvh = build(&m);
         let p = BenchState::Crumpled.deformation(side).apply(m.rest());
         g.bench_with_input(BenchmarkId::new("refit", size), &p, |b, p| {
-            b.iter(|| bvh.refit(&m, p, false))
+            b.iter(|| bvh.refit(&m, p))
         });
     }
     g.finish();

@@ -74,7 +74,7 @@ fn best<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 }
 
 fn fresh_proximity(bvh: &mut Bvh, mesh: &Mesh, x: &[DVec3], d: f64) -> usize {
-    bvh.refit(mesh, x, false);
+    bvh.refit(mesh, x);
     let near = Proximity::new(mesh, x, d, DEFAULT_MAX_CONTACTS);
     let opts = TraverseOptions {
         cones: false,

@@ -765,8 +765,8 @@ mod tests {
             seed: 3,
         }
         .apply(m.rest());
-        refitted.refit(&m, &p, false);
-        refitted.refit(&m, m.rest(), false);
+        refitted.refit(&m, &p);
+        refitted.refit(&m, m.rest());
         assert_eq!(bvh.boxes, refitted.boxes);
         assert_eq!(bvh.cones, refitted.cones);
     }

@@ -571,7 +571,7 @@ mod tests {
 
     fn root_culled(mesh: &Mesh) -> (bool, bool) {
         let mut bvh = build(mesh);
-        bvh.refit(mesh, mesh.rest(), false);
+        bvh.refit(mesh, mesh.rest());
         let root = bvh.root();
         let cones = ConeCull {
             cones: &bvh.cones,
@@ -607,7 +607,7 @@ mod tests {
             })
             .collect();
         let mut bvh = build(&mesh);
-        bvh.refit(&mesh, &p, false);
+        bvh.refit(&mesh, &p);
         let visitor = Intersect {
             mesh: &mesh,
             positions: &p,

@@ -282,8 +282,8 @@ impl KeptCertificates {
         }
     }
 
-    /// Refits `bvh` to `positions` (and its slabs when `slabs`) and, in the
-    /// same passes, the displacement boxes of its nodes; resets the reference when they spread beyond the
+    /// Refits `bvh` to `positions` and, in the same passes, the displacement
+    /// boxes of its nodes; resets the reference when they spread beyond the
     /// cap. Returns this frame's view for the traversal, or None when the
     /// plain tests should run (the reference was reset this frame and the last).
     pub fn refit<'a>(
@@ -291,7 +291,6 @@ impl KeptCertificates {
         bvh: &mut Bvh,
         mesh: &Mesh,
         positions: &[DVec3],
-        slabs: bool,
     ) -> Option<Reuse<'a>> {
         // The whole mesh's displacement box, where it can decide: after a
         // reset (has the mesh settled?) or with certificates to hold.
@@ -301,9 +300,9 @@ impl KeptCertificates {
         let settled = |b: &Aabb| half_diagonal(b) <= RESET * self.cap;
         let mut reset = !same || (self.reset_last && !whole.as_ref().is_some_and(settled));
         if reset {
-            bvh.refit(mesh, positions, slabs);
+            bvh.refit(mesh, positions);
         } else if let Some(b) = whole.filter(|b| self.whole_pays(half_diagonal(b), bvh.n_nodes())) {
-            bvh.refit(mesh, positions, slabs);
+            bvh.refit(mesh, positions);
             self.spread.clear();
             self.spread.push(b);
             reset = !settled(&b);
@@ -313,7 +312,6 @@ impl KeptCertificates {
             bvh.refit_also(
                 mesh,
                 positions,
-                slabs,
                 &mut self.spread,
                 |t, x| {
                     let [a, b, c] = tris[t].map(|v| r[v as usize]);

@@ -36,7 +36,7 @@ pub struct Bvh {
     /// Normal cone of every node, refitted each frame.
     pub cones: Vec<NormalCone>,
     /// Slab of every node along its cone's axis ([`Slab`]) when fitted
-    /// (fitted by a refit that asks for them: [`Bvh::refit`]); empty otherwise.
+    /// ([`Bvh::fit_slabs`], after a refit); empty otherwise.
     pub slabs: Vec<Slab>,
     /// Contour and patch topology of every node, fixed at build time.
     pub patches: patch::Patches,

@@ -15,16 +15,12 @@ const PAR_MIN: usize = 4096;
 const AHEAD: usize = 8;
 
 impl Bvh {
-    /// Refits every box and cone to `positions` (same vertex count as the
-    /// mesh, checked by the caller) and, when `slabs`, every node's slab
-    /// along its cone's axis ([`Slab`]), in the same passes; otherwise (or
-    /// where coordinates exceed 1e300) no slabs are kept, and none bound
-    /// anything. The slabs hold until the next refit.
-    pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3], slabs: bool) {
+    /// Refits every box and cone to `positions` (same vertex count as the mesh,
+    /// checked by the caller).
+    pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
         self.refit_also(
             mesh,
             positions,
-            slabs,
             &mut none(self.n_nodes()),
             |_, _| (),
             |_, _| (),
@@ -39,36 +35,6 @@ impl Bvh {
         &mut self,
         mesh: &Mesh,
         positions: &[DVec3],
-        slabs: bool,
-        values: &mut [T],
-        leaf: impl Fn(usize, &[DVec3; 3]) -> T + Sync,
-        merge: impl Fn(&T, &T) -> T + Sync,
-    ) {
-        // The carries' rounding margin, from the largest coordinate (which
-        // bounds the root box's, not fitted yet).
-        let largest = |m: f64, p: &DVec3| m.max(p.abs().max_element());
-        let err = slabs
-            .then(|| carry_error(positions.iter().fold(0.0, largest)))
-            .flatten();
-        let mut fitted = std::mem::take(&mut self.slabs);
-        fitted.clear();
-        if let Some(err) = err {
-            fitted.resize(self.n_nodes(), Slab::ALL);
-            self.refit_triangles(mesh, positions, (&mut fitted, err), values, leaf, merge);
-        } else {
-            let no_slabs = (&mut none(self.n_nodes())[..], 0.0);
-            self.refit_triangles(mesh, positions, no_slabs, values, leaf, merge);
-        }
-        self.slabs = fitted;
-    }
-
-    /// [`refit_also`](Self::refit_also) with node slabs of type `S` (none
-    /// for `()`), their carries widened by `err`.
-    fn refit_triangles<T: Copy + Send + Sync, S: NodeSlab>(
-        &mut self,
-        mesh: &Mesh,
-        positions: &[DVec3],
-        slabs: (&mut [S], f64),
         values: &mut [T],
         leaf: impl Fn(usize, &[DVec3; 3]) -> T + Sync,
         merge: impl Fn(&T, &T) -> T + Sync,
@@ -76,10 +42,9 @@ impl Bvh {
         let fit = |t| {
             let c = mesh.corners(positions, t);
             let cone = NormalCone::of_triangle(c[0], c[1], c[2]);
-            let slab = S::leaf(cone.axis, &c);
-            (Aabb::from_points(&c), cone, leaf(t, &c), slab)
+            (Aabb::from_points(&c), cone, leaf(t, &c))
         };
-        self.refit_with(values, slabs, fit, merge);
+        self.refit_with(values, fit, merge);
     }
 
     /// Refits the boxes to the triangles swept linearly from `x0` to `x1` (for
@@ -87,10 +52,8 @@ impl Bvh {
     /// culling applies. [`refit_swept_cones`](Self::refit_swept_cones) fits
     /// the cones too, for the swept certificate at thickness 0.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
-        let fit = |t| (mesh.swept_box(x0, x1, t), NormalCone::FULL, (), ());
-        self.slabs.clear();
-        let n = self.n_nodes();
-        self.refit_with(&mut none(n), (&mut none(n), 0.0), fit, |_, _| ());
+        let fit = |t| (mesh.swept_box(x0, x1, t), NormalCone::FULL, ());
+        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
     }
 
     /// Refits the boxes to the swept triangles, as [`refit_swept`](Self::refit_swept),
@@ -100,57 +63,55 @@ impl Bvh {
         let fit = |t| {
             let (c0, c1) = (mesh.corners(x0, t), mesh.corners(x1, t));
             let b = Aabb::from_points(&c0).union(&Aabb::from_points(&c1));
-            (b, NormalCone::of_swept_triangle(c0, c1), (), ())
+            (b, NormalCone::of_swept_triangle(c0, c1), ())
         };
-        self.slabs.clear();
-        let n = self.n_nodes();
-        self.refit_with(&mut none(n), (&mut none(n), 0.0), fit, |_, _| ());
+        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
     }
 
-    /// Sets every leaf's box, cone, value and slab from `leaf(triangle)`,
-    /// then merges upwards (values of a zero-sized type, as [`none`], are
-    /// not merged: there is nothing to fill).
-    fn refit_with<T: Copy + Send + Sync, S: NodeSlab>(
+    /// Sets every leaf's box, cone and value from `leaf(triangle)`, then
+    /// merges upwards (values of a zero-sized type, as [`none`], are not
+    /// merged: there is nothing to fill).
+    fn refit_with<T: Copy + Send + Sync>(
         &mut self,
         values: &mut [T],
-        (slabs, err): (&mut [S], f64),
-        leaf: impl Fn(usize) -> (Aabb, NormalCone, T, S) + Sync,
+        leaf: impl Fn(usize) -> (Aabb, NormalCone, T) + Sync,
         merge: impl Fn(&T, &T) -> T + Sync,
     ) {
         let n = self.n_leaves;
         assert_eq!(values.len(), self.n_nodes(), "one value per node");
-        assert_eq!(slabs.len(), self.n_nodes(), "one slab per node");
+        self.slabs.clear(); // stale now; `fit_slabs` refits them
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
-        let set = |t: usize, (b, c, v, s): Out<T, S>| {
-            (*b, *c, *v, *s) = leaf(t);
+        let set = |t: usize, (b, c, v): (&mut Aabb, &mut NormalCone, &mut T)| {
+            (*b, *c, *v) = leaf(t);
         };
-        let leaves = (boxes, cones, &mut values[..n], &mut slabs[..n]);
+        let leaves = (boxes, cones, &mut values[..n]);
         if n >= PAR_MIN {
             leaves
                 .into_par_iter()
                 .enumerate()
                 .for_each(|(t, x)| set(t, x));
         } else {
-            let (boxes, cones, vals, slabs) = leaves;
-            (boxes.iter_mut().zip(cones).zip(vals).zip(slabs))
+            let (boxes, cones, vals) = leaves;
+            (boxes.iter_mut().zip(cones).zip(vals))
                 .enumerate()
-                .for_each(|(t, (((b, c), v), s))| set(t, (b, c, v, s)));
+                .for_each(|(t, ((b, c), v))| set(t, (b, c, v)));
         }
         let mut boxes = std::mem::take(&mut self.boxes);
         let mut cones = std::mem::take(&mut self.cones);
-        self.merge_up_all((&mut boxes, &mut cones), values, merge, (slabs, err));
+        self.merge_up_all(&mut boxes, &mut cones, values, merge);
         (self.boxes, self.cones) = (boxes, cones);
     }
 
-    /// Sets every internal node's box, cone, value and slab from its
+    /// Sets every internal node's box, cone and value to the merge of its
     /// children's, level by level (leaves already set): one pass that reads
-    /// each node's children once for all four.
-    fn merge_up_all<T: Copy + Send + Sync, S: NodeSlab>(
+    /// each node's children once for all three (three passes read the child
+    /// ids and walk the levels three times).
+    fn merge_up_all<T: Copy + Send + Sync>(
         &self,
-        (boxes, cones): (&mut [Aabb], &mut [NormalCone]),
+        boxes: &mut [Aabb],
+        cones: &mut [NormalCone],
         values: &mut [T],
         merge: impl Fn(&T, &T) -> T + Sync,
-        (slabs, err): (&mut [S], f64),
     ) {
         let n = self.n_leaves;
         for level in &self.levels {
@@ -159,9 +120,8 @@ impl Bvh {
             let (b_done, b_rest) = boxes.split_at_mut(lo);
             let (c_done, c_rest) = cones.split_at_mut(lo);
             let (v_done, v_rest) = values.split_at_mut(lo);
-            let (s_done, s_rest) = slabs.split_at_mut(lo);
             let kids = &self.children[lo - n..hi - n];
-            let set = |i: usize, (b, c, v, s): Out<T, S>| {
+            let set = |(i, (b, (c, v))): (usize, (&mut Aabb, (&mut NormalCone, &mut T)))| {
                 if let Some(&[l, r]) = kids.get(i + AHEAD) {
                     for k in [l, r].map(|k| k as usize) {
                         crate::prefetch::prefetch(&b_done[k]);
@@ -174,28 +134,61 @@ impl Bvh {
                 if std::mem::size_of::<T>() > 0 {
                     *v = merge(&v_done[l], &v_done[r]);
                 }
-                let kid = |k: usize| (&s_done[k], c_done[k].axis, &b_done[k]);
-                *s = S::parent([kid(l), kid(r)], c.axis, b, err);
             };
-            let m = hi - lo;
             let out = (
-                &mut b_rest[..m],
-                &mut c_rest[..m],
-                &mut v_rest[..m],
-                &mut s_rest[..m],
+                &mut b_rest[..hi - lo],
+                &mut c_rest[..hi - lo],
+                &mut v_rest[..hi - lo],
             );
-            if m >= PAR_MIN {
-                out.into_par_iter().enumerate().for_each(|(i, x)| set(i, x));
-            } else {
-                let (b, c, v, s) = out;
-                (b.iter_mut().zip(c).zip(v).zip(s))
+            if hi - lo >= PAR_MIN {
+                let (b, c, v) = out;
+                b.par_iter_mut()
+                    .zip(c.par_iter_mut().zip(v.par_iter_mut()))
                     .enumerate()
-                    .for_each(|(i, (((b, c), v), s))| set(i, (b, c, v, s)));
+                    .for_each(set);
+            } else {
+                let (b, c, v) = out;
+                b.iter_mut()
+                    .zip(c.iter_mut().zip(v))
+                    .enumerate()
+                    .for_each(set);
             }
         }
     }
 
-    /// True when the last refit fitted the slabs ([`refit`](Self::refit)).
+    /// Fits every node's slab along its cone's axis ([`Slab`]) to
+    /// `positions`, the positions of the last refit. The slabs hold until
+    /// the next refit; none are fitted (and none bound anything) where
+    /// coordinates exceed 1e300.
+    pub fn fit_slabs(&mut self, mesh: &Mesh, positions: &[DVec3]) {
+        let Some(err) = self.slab_error() else {
+            self.slabs.clear();
+            return;
+        };
+        let n = self.n_leaves;
+        let cones = &self.cones;
+        self.slabs.resize(self.boxes.len(), Slab::ALL);
+        self.slabs[..n]
+            .par_iter_mut()
+            .with_min_len(PAR_MIN)
+            .enumerate()
+            .for_each(|(t, s)| *s = Slab::of_corners(cones[t].axis, &mesh.corners(positions, t)));
+        let mut slabs = std::mem::take(&mut self.slabs);
+        let (boxes, cones) = (&self.boxes, &self.cones);
+        self.fit_up(&mut slabs, |p, kids, done| {
+            let v = cones[p].axis;
+            let carried = kids.map(|k| {
+                let k = k as usize;
+                done[k].carry(cones[k].axis, &boxes[k], v)
+            });
+            let own = Slab::of_box(v, &boxes[p]);
+            carried[0].union(&carried[1]).intersect(&own).widen(err)
+        });
+        self.slabs = slabs;
+    }
+
+    /// True when [`fit_slabs`](Self::fit_slabs) fitted the slabs to the
+    /// last refit.
     pub fn has_slabs(&self) -> bool {
         self.slabs.len() == self.boxes.len()
     }
@@ -279,37 +272,4 @@ impl Bvh {
 /// cones (a zero-sized type: no memory, nothing merged).
 fn none(nodes: usize) -> Vec<()> {
     vec![(); nodes]
-}
-
-/// One node's box, cone, value and slab, as a refit pass writes them.
-type Out<'a, T, S> = (&'a mut Aabb, &'a mut NormalCone, &'a mut T, &'a mut S);
-
-/// A node's slab as the refit fits it: a [`Slab`] along the node's cone
-/// axis, or nothing (`()`) when the refit keeps none.
-trait NodeSlab: Copy + Send + Sync {
-    /// A leaf's, along its cone axis `axis`, from its corners.
-    fn leaf(axis: DVec3, corners: &[DVec3; 3]) -> Self;
-    /// A parent's along its axis `v`: the children's (slab, axis, box)
-    /// carried to `v`, within the parent's box `b`, widened by `err`.
-    fn parent(kids: [(&Self, DVec3, &Aabb); 2], v: DVec3, b: &Aabb, err: f64) -> Self;
-}
-
-impl NodeSlab for () {
-    #[inline]
-    fn leaf(_: DVec3, _: &[DVec3; 3]) {}
-    #[inline]
-    fn parent(_: [(&(), DVec3, &Aabb); 2], _: DVec3, _: &Aabb, _: f64) {}
-}
-
-impl NodeSlab for Slab {
-    #[inline]
-    fn leaf(axis: DVec3, corners: &[DVec3; 3]) -> Slab {
-        Slab::of_corners(axis, corners)
-    }
-
-    #[inline]
-    fn parent(kids: [(&Slab, DVec3, &Aabb); 2], v: DVec3, b: &Aabb, err: f64) -> Slab {
-        let [x, y] = kids.map(|(s, u, kb)| s.carry(u, kb, v));
-        x.union(&y).intersect(&Slab::of_box(v, b)).widen(err)
-    }
 }

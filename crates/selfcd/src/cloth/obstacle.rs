@@ -151,8 +151,8 @@ impl<'a> Collider<'a> {
     /// Element pairs closer than `d` at combined positions `x`.
     pub fn proximity(&mut self, x: &[DVec3], d: f64) -> Vec<Near> {
         let (c, o) = self.split(x);
-        self.cloth_bvh.refit(self.meshes.cloth, c, false);
-        self.obstacle_bvh.refit(self.meshes.obstacle, o, false);
+        self.cloth_bvh.refit(self.meshes.cloth, c);
+        self.obstacle_bvh.refit(self.meshes.obstacle, o);
         let pairs = self.candidates(d);
         cross::proximity(self.meshes, x, &pairs, d)
     }
@@ -169,8 +169,8 @@ impl<'a> Collider<'a> {
     /// (cloth triangle, obstacle triangle) pairs that intersect at combined positions `x`.
     pub fn intersections(&mut self, x: &[DVec3]) -> Vec<[u32; 2]> {
         let (c, o) = self.split(x);
-        self.cloth_bvh.refit(self.meshes.cloth, c, false);
-        self.obstacle_bvh.refit(self.meshes.obstacle, o, false);
+        self.cloth_bvh.refit(self.meshes.cloth, c);
+        self.obstacle_bvh.refit(self.meshes.obstacle, o);
         cross::intersections(
             self.meshes,
             x,

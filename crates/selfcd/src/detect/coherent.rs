@@ -535,7 +535,7 @@ impl SelfQueries {
             return;
         }
         let t0 = Instant::now();
-        self.bvh.refit(&self.mesh, x, false);
+        self.bvh.refit(&self.mesh, x);
         self.fit.at.clear();
         self.fit.at.extend_from_slice(x);
         self.fit.fitted = true;

@@ -112,7 +112,7 @@ fn largest_move(reference: &[DVec3], positions: &[DVec3]) -> f64 {
     d * (1.0 + 1e-12)
 }
 
-/// When a detector fits slabs (with the refit: [`Bvh::refit`]). They cull node pairs
+/// When a detector fits slabs ([`Bvh::fit_slabs`]). They cull node pairs
 /// whose boxes overlap but which lie apart along their normals (layers of
 /// cloth closer than their triangles are wide), and fitting them costs
 /// about as much as the refit. So they are fitted for a frame when the last
@@ -191,7 +191,7 @@ impl BvhDetector {
 
     /// Refits boxes and cones to `positions` (already checked).
     pub fn refit(&mut self, positions: &[DVec3]) {
-        self.bvh.refit(&self.mesh, positions, false);
+        self.bvh.refit(&self.mesh, positions);
     }
 
     /// Traverses the refitted hierarchy: intersections, and proximity when
@@ -277,14 +277,14 @@ impl BvhDetector {
                 .take()
                 .unwrap_or_else(|| KeptCertificates::new(cap))
         });
-        let slabs = self.slabs.fit();
         let reuse = match kept.as_mut() {
-            Some(k) => k.refit(&mut self.bvh, &self.mesh, positions, slabs),
+            Some(k) => k.refit(&mut self.bvh, &self.mesh, positions),
             None => {
-                self.bvh.refit(&self.mesh, positions, slabs);
+                self.refit(positions);
                 None
             }
         };
+        self.fit_slabs(positions);
         let refit_time = t0.elapsed().as_secs_f64();
         let start = if sequence {
             KeptFront::start(self.front.as_ref(), positions)
@@ -326,6 +326,13 @@ impl BvhDetector {
         }
         det.stats.refit_time = refit_time;
         Ok(det)
+    }
+
+    /// Fits the slabs to the refitted hierarchy when the policy says so.
+    fn fit_slabs(&mut self, positions: &[DVec3]) {
+        if self.slabs.fit() {
+            self.bvh.fit_slabs(&self.mesh, positions);
+        }
     }
 }
 

@@ -250,8 +250,8 @@ mod tests {
             };
             let d = 0.12;
             let (mut bc, mut bo) = (build(&cloth), build(&obstacle));
-            bc.refit(&cloth, cloth.rest(), false);
-            bo.refit(&obstacle, obstacle.rest(), false);
+            bc.refit(&cloth, cloth.rest());
+            bo.refit(&obstacle, obstacle.rest());
             let pairs = element_pairs(m, &leaf_pairs(&bc, &bo, d));
             let mut got: Vec<_> = proximity(m, &x, &pairs, d).iter().map(|n| n.pair).collect();
             got.sort_unstable();
@@ -274,8 +274,8 @@ mod tests {
                 obstacle: &obstacle,
             };
             let (mut bc, mut bo) = (build(&cloth), build(&obstacle));
-            bc.refit(&cloth, cloth.rest(), false);
-            bo.refit(&obstacle, obstacle.rest(), false);
+            bc.refit(&cloth, cloth.rest());
+            bo.refit(&obstacle, obstacle.rest());
             let hits = intersections(m, &x, &leaf_pairs(&bc, &bo, 0.0));
             assert_eq!(!hits.is_empty(), want);
         }
@@ -297,7 +297,7 @@ mod tests {
             .collect();
         let (mut bc, mut bo) = (build(&cloth), build(&obstacle));
         bc.refit_swept(&cloth, &x0[..n], &x1[..n]);
-        bo.refit(&obstacle, obstacle.rest(), false);
+        bo.refit(&obstacle, obstacle.rest());
         let hits = continuous(
             m,
             &x0,

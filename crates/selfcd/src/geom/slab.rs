@@ -153,7 +153,7 @@ mod tests {
             let (bt, bs) = (Aabb::from_points(&t), Aabb::from_points(&s));
             let b = bt.union(&bs);
             let err = carry_error(b.min.abs().max(b.max.abs()).max_element()).unwrap();
-            // A parent of the two triangles, as `Bvh::refit` makes it.
+            // A parent of the two triangles, as `Bvh::fit_slabs` makes it.
             let (st, ss) = (Slab::of_corners(u, &t), Slab::of_corners(w, &s));
             let carried = st.carry(u, &bt, v).union(&ss.carry(w, &bs, v));
             let parent = carried.intersect(&Slab::of_box(v, &b)).widen(err);

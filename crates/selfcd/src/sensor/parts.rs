@@ -459,7 +459,7 @@ mod tests {
             seed: 1,
         }
         .apply(mesh.rest());
-        bvh.refit(&mesh, &crumpled, false);
+        bvh.refit(&mesh, &crumpled);
         let mut stack = vec![bvh.root()];
         let mut exact = 0;
         while let Some(node) = stack.pop() {
