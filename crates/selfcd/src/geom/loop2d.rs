@@ -1160,6 +1160,25 @@ mod tests {
         assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
     }
 
+    /// The area reach of a close pair list bounds the moves that keep a
+    /// loop counter-clockwise: a sliver triangle `h` high is flipped by a
+    /// move of `h / 2` of its apex and base, and its reach stays below
+    /// that; moved by up to its reach, it stays counter-clockwise.
+    #[test]
+    fn area_reach_keeps_a_sliver_counter_clockwise() {
+        let mut rng = crate::scene::SplitMix::new(9);
+        let mut scratch = LoopScratch::default();
+        for h in [0.3, 0.03, 0.003] {
+            let sliver = loop_of(&[[0., 0.], [1., 0.], [0.5, h]], &[0, 1, 2]);
+            let mut pairs = Vec::new();
+            let reach = close_pairs(&sliver, sliver.len(), 0.5, &mut scratch, &mut pairs).unwrap();
+            assert!(reach.area > 0.0 && reach.area < 0.5 * h, "{h}: {reach:?}");
+            for _ in 0..2000 {
+                assert!(is_ccw(&jiggle(&sliver, 0.999 * reach.area, &mut rng)));
+            }
+        }
+    }
+
     /// Two loops pinched at a vertex, moved by less than their reach: their
     /// close pairs (of the list of both) decide as the full tests do, whether
     /// the move keeps them apart or not: a square and a quad touching it at
