@@ -18,6 +18,8 @@
 //! `PROF_WAVE=drift` on one frame per repetition, the wave's phase moving
 //! as before and its wavelength growing 2% a frame (no frame repeats). The
 //! first detection (refit + traverse) is reported apart from the best.
+//! `PROF_GAP_MS=g` sleeps `g` ms before each cycle of the frames (the idle
+//! gaps a caller's other work leaves, as between the peer script's runs).
 //! `PROF_ONESHOT=1` runs the one-shot query instead (`self_intersections`'s
 //! top-down hierarchy, REPS times, on the mesh as built): best time and
 //! what it did; METHOD is ignored.
@@ -109,7 +111,13 @@ fn main() {
     let each = std::env::var("PROF_EACH").is_ok_and(|x| x == "1");
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
     let mut first = 0.0;
+    let gap: u64 = std::env::var("PROF_GAP_MS")
+        .ok()
+        .map_or(0, |g| g.parse().unwrap());
     for r in 0..reps {
+        if gap > 0 && r % frames.len() == 0 {
+            std::thread::sleep(std::time::Duration::from_millis(gap));
+        }
         let s = d.detect(&frames[r % frames.len()]).unwrap().stats;
         if r == 0 {
             first = s.refit_time + s.traverse_time;
