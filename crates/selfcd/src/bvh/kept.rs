@@ -131,15 +131,16 @@ pub struct Kept {
     pub axis: DVec3,
     /// The slack left once the displacement spread at certification is taken off.
     pub slack: f64,
-    /// The exact re-check, where the contour was one loop.
+    /// The exact re-check, where one was found ([`Recheck`]).
     pub recheck: Option<Recheck>,
 }
 
 /// What re-checks a certificate whose slack the spread exceeds (module doc,
 /// "Re-check"): the origin of its projection plane, its contour's edge
-/// pairs that were closer than twice the cap ([`close_pairs`](crate::geom::loop2d::close_pairs)),
-/// and the spread below which no other pair can have met (the cap less the
-/// spread at certification and the rounding margin).
+/// pairs that a move below the cap could make meet, each with its slack
+/// less the spread at certification ([`close_pairs`](crate::geom::loop2d::close_pairs)),
+/// and the spreads below which they decide and the signed areas hold (the
+/// [`Reach`] less the spread at certification).
 #[derive(Debug, Clone, Copy)]
 pub struct Recheck {
     /// Origin of the projection plane (its axis is the certificate's).
@@ -169,7 +170,7 @@ struct FreshRecheck {
 
 /// What a fresh certificate offers a re-check: the origin of its plane, its
 /// contour's [`close_pairs`](crate::geom::loop2d::close_pairs) within the
-/// cap, and its projected contour's extent (for the rounding margin).
+/// cap, and how far they decide ([`Reach`]).
 #[derive(Debug, Clone)]
 pub struct LoopPairs {
     /// Origin of the projection plane.

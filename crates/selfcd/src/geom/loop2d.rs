@@ -368,8 +368,8 @@ fn one_ccw_cycle(segs: &[Seg], scratch: &mut LoopScratch) -> Option<f64> {
 }
 
 /// A pair of contour edges a re-check compares ([`close_pairs`]): the
-/// edges' ids and the pair's slack ([`pair_slack`], rounded down), the move
-/// below which it certainly stays clear.
+/// edges' ids and the pair's slack, rounded down: how far every end may
+/// move with the pair certainly staying clear.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ClosePair {
     /// Edge ids: into the tested list, or whatever the holder maps them to.
