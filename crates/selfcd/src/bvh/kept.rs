@@ -112,11 +112,14 @@ pub(crate) fn fold_moves<T: Copy + Send + Sync>(
     moves.fold(|| empty, add).reduce(|| empty, &merge)
 }
 
-/// What a re-checked and a fresh certificate cost, in fits of a node's
-/// displacement box (measured, one thread: the fit of every node's box about
-/// 27 ns a node on skirt_32k; a re-check about 1 us and a fresh test 3 us on
-/// the garments; BENCHMARKS.md).
+/// What a re-check costs, in fits of one node's displacement box: a rough
+/// estimate from one-thread runs (BENCHMARKS.md, eighteenth landing: the fit
+/// of every node's box about 27-31 ns a node on skirt_32k; a re-check under
+/// 1 us and a fresh test a few us on the garments), used with a margin
+/// ([`KeptCertificates::whole_pays`]).
 const RECHECK: f64 = 37.0;
+/// What a fresh contour test costs, in fits of one node's displacement box
+/// (as [`RECHECK`]).
 const FRESH: f64 = 110.0;
 
 /// Below this many vertices the displacement pass runs on one thread.
@@ -411,11 +414,10 @@ impl KeptCertificates {
     }
 
     /// Is the whole mesh's displacement spread `h` worth taking for every
-    /// node, instead of fitting the nodes' own (a second refit, about
-    /// one node's fit costs [`RECHECK`] and [`FRESH`] less than a re-check and a fresh test)? Yes when it is within
-    /// the least slack (every certificate holds), or when the certificates
-    /// it puts out of reach (that a node's own spread might have kept) cost
-    /// less to test afresh than the fit.
+    /// node, instead of fitting the nodes' own boxes (a second refit of
+    /// `nodes` nodes)? Yes when it is within the least slack (every
+    /// certificate holds), or when the certificates it leaves to a re-check
+    /// ([`RECHECK`]) or a fresh test ([`FRESH`]) cost far less than the fit.
     fn whole_pays(&self, h: f64, nodes: usize) -> bool {
         if self.kept.is_empty() {
             return false;

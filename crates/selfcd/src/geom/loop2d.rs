@@ -1110,6 +1110,22 @@ mod tests {
             .collect()
     }
 
+    /// What a kept certificate's re-check decides for loops `moved` (the
+    /// first `split` edges one loop, the rest another) by up to `r` since
+    /// their close pairs and reach were found, as `ContourCull::reused`
+    /// does: the pairs that `r` reaches clear, and each loop's orientation
+    /// measured again only beyond the area reach.
+    fn rechecked(
+        moved: &[Seg],
+        split: usize,
+        (pairs, reach): (&[ClosePair], &Reach),
+        r: f64,
+    ) -> bool {
+        let (a, b) = moved.split_at(split);
+        still_clear(pairs, r, reach.eps, |i| moved.get(i as usize).copied())
+            && (r < reach.area || is_ccw(a) && (b.is_empty() || is_ccw(b)))
+    }
+
     /// Moved by less than the pad, a loop is simple and counter-clockwise by
     /// its close pairs exactly when it is by the full test, whether the move
     /// keeps it simple or not: U-shaped loops with slots of several widths
@@ -1151,8 +1167,7 @@ mod tests {
                 })
                 .collect();
             let full = simple_ccw_loop(&moved, &mut scratch);
-            let seg = |i: u32| moved.get(i as usize).copied();
-            let kept = still_clear(&pairs, r, reach.eps, seg) && (r < reach.area || is_ccw(&moved));
+            let kept = rechecked(&moved, segs.len(), (&pairs, &reach), r);
             assert_eq!(kept, full, "round {round}");
             same += full as u32;
             broken += !full as u32;
@@ -1206,8 +1221,7 @@ mod tests {
             let full = simple_ccw_loop(ma, &mut scratch)
                 && simple_ccw_loop(mb, &mut scratch)
                 && loops_meet_only_where_shared(ma, mb, &mut scratch);
-            let kept = still_clear(&pairs, r, reach.eps, |i| moved.get(i as usize).copied())
-                && (r < reach.area || is_ccw(ma) && is_ccw(mb));
+            let kept = rechecked(&moved, a.len(), (&pairs, &reach), r);
             assert_eq!(kept, full, "round {round}");
             same += full as u32;
             broken += !full as u32;
