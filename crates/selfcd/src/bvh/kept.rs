@@ -529,17 +529,17 @@ impl Reuse<'_> {
         let recheck = (spread <= RECHECK_SPREAD * self.cap).then(close).flatten();
         // The pairs' slacks and the reach bound the move since now; less the
         // spread now, they bound the spread of a later frame (module doc).
-        let recheck = recheck.map(|r| FreshRecheck {
-            origin: r.origin,
-            pairs: (r.pairs.iter())
-                .map(|c| ClosePair {
-                    slack: round_down(c.slack as f64 - spread),
-                    ..*c
-                })
-                .collect(),
-            within: r.reach.moved - spread,
-            area_within: r.reach.area - spread,
-            eps: r.reach.eps,
+        let recheck = recheck.map(|mut r| {
+            for c in &mut r.pairs {
+                c.slack = round_down(c.slack as f64 - spread);
+            }
+            FreshRecheck {
+                origin: r.origin,
+                pairs: r.pairs,
+                within: r.reach.moved - spread,
+                area_within: r.reach.area - spread,
+                eps: r.reach.eps,
+            }
         });
         let within = recheck.as_ref().map_or(f64::NEG_INFINITY, |r| r.within);
         if left > 0.0 || within > 0.0 {
