@@ -7,7 +7,9 @@
 //! (default 11); steps: timed steps (default 600); method: detection method
 //! (default bvh-cones-contour); warmup: steps run before timing (default 0).
 //! `CLOTH_PRECONDITIONER=block-jacobi|multigrid` overrides the preconditioner
-//! the simulator picks by size (`Preconditioner::for_vertices`).
+//! the simulator picks by size (`Preconditioner::for_vertices`). The last
+//! line is a checksum of the final positions' bits: the same for any number
+//! of threads.
 
 use selfcd::cloth::{Material, PaperScene, Preconditioner, SimOptions, Simulation};
 use selfcd::detect::Method;
@@ -15,6 +17,9 @@ use std::process::ExitCode;
 
 #[path = "common/allocator.rs"]
 mod allocator;
+#[path = "common/checksum.rs"]
+#[allow(dead_code)]
+mod checksum;
 fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,
@@ -144,5 +149,8 @@ fn run() -> Result<(), String> {
         ms(query_time),
         candidates as f64 / s
     );
+    let bits = sim.positions().iter().flat_map(|p| p.to_array());
+    let sum = checksum::fnv(checksum::START, bits.map(f64::to_bits));
+    println!("final positions checksum {sum:016x}");
     Ok(())
 }

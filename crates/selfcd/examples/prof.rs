@@ -20,6 +20,8 @@
 //! first detection (refit + traverse) is reported apart from the best.
 //! `PROF_GAP_MS=g` sleeps `g` ms before each cycle of the frames (the idle
 //! gaps a caller's other work leaves, as between the peer script's runs).
+//! The last line is a checksum of what was found (every frame's pairs and
+//! proximity contacts): the same for any number of threads.
 //! `PROF_ONESHOT=1` runs the one-shot query instead (`self_intersections`'s
 //! top-down hierarchy, REPS times, on the mesh as built): best time and
 //! what it did; METHOD is ignored.
@@ -29,6 +31,8 @@ use std::time::Instant;
 
 #[path = "common/allocator.rs"]
 mod allocator;
+#[path = "common/checksum.rs"]
+mod checksum;
 #[path = "common/input.rs"]
 mod input;
 #[path = "common/obj.rs"]
@@ -110,6 +114,7 @@ fn main() {
     };
     let each = std::env::var("PROF_EACH").is_ok_and(|x| x == "1");
     let (mut refit, mut trav, mut last) = (f64::MAX, f64::MAX, None);
+    let mut sum = checksum::START;
     let mut first = 0.0;
     let gap: u64 = std::env::var("PROF_GAP_MS")
         .ok()
@@ -118,7 +123,30 @@ fn main() {
         if gap > 0 && r % frames.len() == 0 {
             std::thread::sleep(std::time::Duration::from_millis(gap));
         }
-        let s = d.detect(&frames[r % frames.len()]).unwrap().stats;
+        let det = d.detect(&frames[r % frames.len()]).unwrap();
+        sum = checksum::pairs(sum, &det.pairs);
+        let prox = &det.proximity;
+        let vt = prox.vertex_triangle.iter();
+        sum = checksum::fnv(
+            sum,
+            vt.flat_map(|c| {
+                [
+                    (c.vertex as u64) << 32 | c.triangle as u64,
+                    c.distance.to_bits(),
+                ]
+            }),
+        );
+        let ee = prox.edge_edge.iter();
+        sum = checksum::fnv(
+            sum,
+            ee.flat_map(|c| {
+                [
+                    (c.edges[0] as u64) << 32 | c.edges[1] as u64,
+                    c.distance.to_bits(),
+                ]
+            }),
+        );
+        let s = det.stats;
         if r == 0 {
             first = s.refit_time + s.traverse_time;
         }
@@ -150,6 +178,7 @@ fn main() {
         "{n} triangles: build {:.1} ms, first detect {:.1} ms, best refit {:.3} ms, best traverse {:.3} ms; node pairs {}, contour tests {} (failed {}, certificates reused {}), primitive tests {}, contacts {}, proximity tests {}, proximity contacts {}",
         build * 1e3, first * 1e3, refit * 1e3, trav * 1e3, s.node_pairs, s.contour_tests, s.contour_fails, s.certificates_reused, s.primitive_tests, s.contacts, s.proximity_tests, s.proximity_contacts
     );
+    println!("pairs checksum {sum:016x} (every frame's pairs and proximity contacts)");
 }
 
 /// `PROF_ONESHOT=1`: the one-shot query `reps` times; best time and counters.
@@ -160,8 +189,10 @@ fn one_shot(mesh: &selfcd::Mesh, p: &[selfcd::DVec3], reps: usize) {
         let t0 = Instant::now();
         let (pairs, c) = selfcd::bvh::topdown::self_intersections(mesh, p);
         best = best.min(t0.elapsed().as_secs_f64() * 1e3);
-        last = Some((pairs.len(), c));
+        last = Some((pairs, c));
     }
-    let (n, c) = last.unwrap();
-    println!("one-shot best {best:.2} ms, {n} pairs; {c:?}");
+    let (pairs, c) = last.unwrap();
+    let sum = checksum::pairs(checksum::START, &pairs);
+    println!("one-shot best {best:.2} ms, {} pairs; {c:?}", pairs.len());
+    println!("pairs checksum {sum:016x}");
 }
