@@ -126,6 +126,9 @@ impl Bvh {
                     for k in [l, r].map(|k| k as usize) {
                         crate::prefetch::prefetch(&b_done[k]);
                         crate::prefetch::prefetch(&c_done[k]);
+                        if std::mem::size_of::<T>() > 0 {
+                            crate::prefetch::prefetch(&v_done[k]);
+                        }
                     }
                 }
                 let [l, r] = kids[i].map(|k| k as usize);
@@ -175,7 +178,12 @@ impl Bvh {
             .for_each(|(t, s)| *s = Slab::of_corners(cones[t].axis, &mesh.corners(positions, t)));
         let mut slabs = std::mem::take(&mut self.slabs);
         let (boxes, cones) = (&self.boxes, &self.cones);
-        self.fit_up(&mut slabs, |p, kids, done| {
+        // The children's axes and boxes are read at random too: fetched ahead.
+        let ahead = |k: u32| {
+            crate::prefetch::prefetch(&cones[k as usize]);
+            crate::prefetch::prefetch(&boxes[k as usize]);
+        };
+        self.fit_up(&mut slabs, ahead, |p, kids, done| {
             let v = cones[p].axis;
             let carried = kids.map(|k| {
                 let k = k as usize;
@@ -232,17 +240,22 @@ impl Bvh {
         values: &mut [T],
         merge: impl Fn(&T, &T) -> T + Sync,
     ) {
-        self.fit_up(values, |_, [l, r], done| {
-            merge(&done[l as usize], &done[r as usize])
-        });
+        self.fit_up(
+            values,
+            |_| (),
+            |_, [l, r], done| merge(&done[l as usize], &done[r as usize]),
+        );
     }
 
     /// Sets every internal node `p` of `values` to `fit(p, children of p,
     /// done)`, level by level, where `done` holds the values of every node
-    /// below the level (leaves already set); parallel within a level.
+    /// below the level (leaves already set); parallel within a level. The
+    /// children's values are prefetched a few parents ahead, and `ahead(k)`
+    /// is called there for each child `k` (to prefetch what else `fit` reads).
     fn fit_up<T: Copy + Send + Sync>(
         &self,
         values: &mut [T],
+        ahead: impl Fn(u32) + Sync,
         fit: impl Fn(usize, [u32; 2], &[T]) -> T + Sync,
     ) {
         let n = self.n_leaves;
@@ -255,6 +268,8 @@ impl Bvh {
                 if let Some(&[a, b]) = kids.get(i + AHEAD) {
                     crate::prefetch::prefetch(&done[a as usize]);
                     crate::prefetch::prefetch(&done[b as usize]);
+                    ahead(a);
+                    ahead(b);
                 }
                 *v = fit(lo + i, kids[i], done)
             };
