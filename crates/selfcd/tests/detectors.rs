@@ -370,7 +370,9 @@ fn same_contacts_for_any_thread_count() {
     };
     let one = run(1);
     assert!(!one.0[0].0.is_empty() && !one.1.is_empty());
+    // Two threads, and three (the work split unevenly among them).
     assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
     assert_eq!(one.0[0].0, detect(&mesh, Method::Brute, &p, 0.0).pairs);
     assert_eq!(one.1, one.0[0].1, "one-shot proximity against bvh's");
 }
