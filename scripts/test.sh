@@ -15,8 +15,9 @@
 # polyscope, usd-core, ray (the Ray test starts a small local head on 127.0.0.1),
 # and ruff and mypy for the gates).
 # Gates, run after the tests: cargo fmt --check, cargo clippy -D warnings,
-# ruff (configured in pyproject.toml) and mypy's stubtest of selfcd._core
-# against python/selfcd/_core.pyi.
+# cargo doc with warnings as errors (broken or private links in the API
+# docs), ruff (configured in pyproject.toml) and mypy's stubtest of
+# selfcd._core against python/selfcd/_core.pyi.
 # No browser is downloaded: playwright drives Debian's /usr/bin/chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -60,6 +61,7 @@ gate() {
 command -v rustup >/dev/null && rustup component add rustfmt clippy >/dev/null 2>&1 || true
 gate "cargo fmt --check" cargo fmt --all --check
 gate "cargo clippy" cargo clippy --workspace --all-targets -- -D warnings
+gate "cargo doc" env RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 gate "ruff" "$PY" -m ruff check .
 gate "stubtest" "$PY" -m mypy.stubtest selfcd._core --allowlist scripts/stubtest_allowlist.txt
 

@@ -2,7 +2,7 @@
 //!
 //! Level by level, nodes are paired greedily so that the merged box is
 //! smallest, as in the paper (computed in parallel as locally dominant edges,
-//! see [`Level::matching`]); we measure boxes by *surface area*, not volume,
+//! see `Level::matching`); we measure boxes by *surface area*, not volume,
 //! because a flat cloth's boxes all have zero volume. Only nodes whose patches
 //! share an edge are paired, so every node is a connected patch of surface
 //! (the cone and contour tests need that). When no two remaining nodes share
@@ -11,7 +11,7 @@
 //! Everything is parallel within a level and O(n) over the whole build: the
 //! nodes' adjacency is coarsened row by row (no global sort), and each
 //! parent's patch comes from its children's sorted lists by linear merges
-//! (see [`union`]); boxes and cones are fitted as the parents are made, so no
+//! (see `union`); boxes and cones are fitted as the parents are made, so no
 //! refit follows. The result does not depend on the number of threads.
 
 use super::patch::{merge_contours_with, pack, unpack, Patches, INELIGIBLE, SEVERAL};

@@ -20,7 +20,7 @@
 //! `e_i - e_i(t)`. Only the part of that move across the certificate's axis
 //! moves the projected contour, and both displacements lie in boxes whose
 //! points are within `h` and `h(t)` of the line along the axis through the
-//! box centre ([`half_diagonal_across`]), so the projected move is a common
+//! box centre (`half_diagonal_across`), so the projected move is a common
 //! translation plus at most `h + h(t)`. The certificate stores `s - h(t)`
 //! and holds while `h <= s - h(t)`. The normals are checked on this frame's
 //! cones: each must lie strictly within 90 degrees of the stored axis
@@ -512,7 +512,7 @@ impl Reuse<'_> {
     /// Records the certificate of node `a` (`a == b`) or of the union of
     /// `a` and `b` made this frame along `axis` with slack `slack` (None: no
     /// certificate) and, where its contour was one loop and the spread
-    /// leaves room for it ([`RECHECK_SPREAD`]), what re-checks it: the pairs
+    /// leaves room for it (`RECHECK_SPREAD`), what re-checks it: the pairs
     /// `close` finds within the cap. Returns whether there is a certificate.
     pub fn record(
         &self,

@@ -310,7 +310,7 @@ pub struct ImpulseStats {
 /// velocity (or `p.sweeps` sweeps). An impulse `j` along n changes `v_k` by
 /// `w_k j n / m_k`, with `j = (goal - vn) / sum_k w_k^2 / m_k`, so momentum is
 /// conserved and pinned vertices (inverse mass 0) do not move. Then Coulomb
-/// friction `mu(c)` on the total normal impulse (see [`resolve`]).
+/// friction `mu(c)` on the total normal impulse (see `resolve`).
 pub fn impulses(
     contacts: &[Contact],
     inv_mass: &[f64],

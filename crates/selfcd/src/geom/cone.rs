@@ -178,7 +178,7 @@ impl NormalCone {
     /// delta there, since 1 - cos t <= sin t and 2 delta <= sin p), and
     /// `p <= 2.02 sqrt(delta) < 9 sqrt(eps)` (1.3e-7 radians): the cone is
     /// widened by that. Past 90 degrees (a cone that is not positive at any
-    /// width) the farthest angle is found exactly ([`Angle::le`]).
+    /// width) the farthest angle is found exactly (`Angle::le`).
     pub fn around(axis: DVec3, normals: &[DVec3], err: f64) -> NormalCone {
         if axis == DVec3::ZERO || normals.is_empty() {
             return NormalCone::FULL;

@@ -19,7 +19,7 @@ const APART_SLACK: f64 = 1e-9;
 
 /// True when the convex hulls of `a` and `b` are certainly farther apart than
 /// `gap`: their boxes are apart ([`Aabb::within`] fails) by more than `gap`
-/// plus a slack of [`APART_SLACK`] times the coordinates' magnitude. The cheap element-level
+/// plus a slack of `APART_SLACK` times the coordinates' magnitude. The cheap element-level
 /// cull in front of the distance and time-of-impact functions; it never
 /// rejects a pair those compute closer than `gap`.
 #[inline]
@@ -157,7 +157,7 @@ pub fn point_triangle_distance2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (f64,
     ((a * w[0] + b * w[1] + c * w[2] - p).length_squared(), w)
 }
 
-/// Closest points of segments p1-q1 and p2-q2 as parameters (s, t) in [0,1]^2,
+/// Closest points of segments p1-q1 and p2-q2 as parameters (s, t) in `[0, 1]^2`,
 /// with the squared distance. Parallel and zero-length segments are handled.
 pub fn segment_segment_distance2(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> (f64, f64, f64) {
     let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);

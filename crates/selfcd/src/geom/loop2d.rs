@@ -556,7 +556,7 @@ fn ccw_extent2(segs: &[Seg]) -> Option<f64> {
 /// `Some(s)` bounds the move of every vertex, any common translation removed.
 /// Two edges sharing no vertex stay apart while each moves less than half
 /// their distance; two sharing one keep an angle between them (see
-/// [`adjacent_slack`]).
+/// `adjacent_slack`).
 ///
 /// Consecutive edges (the only ones sharing a vertex in one cycle) come
 /// first: on real contours they usually set the least slack. The other pairs are then compared
@@ -673,7 +673,7 @@ fn point_seg_distance(p: [f64; 2], s: &Seg) -> f64 {
 /// of a linear motion from `start` to `end` (the same directed edges at both
 /// ends)? [`simple_ccw_loop`]'s conditions at the start, then every pair of
 /// edges whose boxes over the motion meet must stay clear for the whole
-/// motion ([`edges_stay_clear`]): a loop simple at the start that never has
+/// motion (`edges_stay_clear`): a loop simple at the start that never has
 /// two edges meet where the mesh does not join them stays simple, and its
 /// orientation cannot flip. Refuses what it cannot decide.
 pub fn swept_simple_ccw_loop(start: &[Seg], end: &[Seg], scratch: &mut LoopScratch) -> bool {

@@ -9,7 +9,7 @@
 //! Degenerate (collapsed) triangles are handled as their edges. Pairs in
 //! general position (no corner on the other's plane, the usual crossing
 //! contact) take a shortcut: two more orientations instead of the edge
-//! tests ([`crossing`]).
+//! tests (`crossing`).
 //!
 //! The corners are named by index: a = 0, 1, 2 and b = 3, 4, 5. The decision is
 //! written once, generic over the arithmetic: Shewchuk's expansions for every

@@ -267,7 +267,7 @@ impl OriginalDistance {
 
     /// Marches every renewed field that a path between `points` (located at
     /// `at`) reads: one whose particle has another particle of its component,
-    /// on another triangle, not [`Field::beyond`] its reach.
+    /// on another triangle, not `Field::beyond` its reach.
     pub fn prepare(&mut self, points: &[SurfacePoint], at: &[Located]) {
         for j in 0..self.fields.len().min(points.len()) {
             let Some(f) = &self.fields[j] else { continue };
@@ -324,7 +324,7 @@ impl OriginalDistance {
 
     /// [`Self::path`] from particle `pi` to particle `j`, `pj`, each with its
     /// [`Located`] point (after [`Self::prepare`] of the particles). Field j is
-    /// read only when i is not [`Field::beyond`] its reach; otherwise the path
+    /// read only when i is not `Field::beyond` its reach; otherwise the path
     /// is what the field would give there (every corner infinite, the
     /// particle farther than the reach: the chord).
     #[inline]
