@@ -125,27 +125,7 @@ fn main() {
         }
         let det = d.detect(&frames[r % frames.len()]).unwrap();
         sum = checksum::pairs(sum, &det.pairs);
-        let prox = &det.proximity;
-        let vt = prox.vertex_triangle.iter();
-        sum = checksum::fnv(
-            sum,
-            vt.flat_map(|c| {
-                [
-                    (c.vertex as u64) << 32 | c.triangle as u64,
-                    c.distance.to_bits(),
-                ]
-            }),
-        );
-        let ee = prox.edge_edge.iter();
-        sum = checksum::fnv(
-            sum,
-            ee.flat_map(|c| {
-                [
-                    (c.edges[0] as u64) << 32 | c.edges[1] as u64,
-                    c.distance.to_bits(),
-                ]
-            }),
-        );
+        sum = checksum::proximity(sum, &det.proximity);
         let s = det.stats;
         if r == 0 {
             first = s.refit_time + s.traverse_time;

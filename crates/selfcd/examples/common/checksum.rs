@@ -16,3 +16,27 @@ pub const START: u64 = 0xcbf2_9ce4_8422_2325;
 pub fn pairs(h: u64, pairs: &[[u32; 2]]) -> u64 {
     fnv(h, pairs.iter().map(|p| (p[0] as u64) << 32 | p[1] as u64))
 }
+
+/// The checksum of proximity contacts: ids and distance bits of each.
+pub fn proximity(h: u64, near: &selfcd::detect::ProximityContacts) -> u64 {
+    let vt = near.vertex_triangle.iter();
+    let ee = near.edge_edge.iter();
+    let h = fnv(
+        h,
+        vt.flat_map(|c| {
+            [
+                (c.vertex as u64) << 32 | c.triangle as u64,
+                c.distance.to_bits(),
+            ]
+        }),
+    );
+    fnv(
+        h,
+        ee.flat_map(|c| {
+            [
+                (c.edges[0] as u64) << 32 | c.edges[1] as u64,
+                c.distance.to_bits(),
+            ]
+        }),
+    )
+}
