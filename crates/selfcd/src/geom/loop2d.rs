@@ -1126,6 +1126,37 @@ mod tests {
             && (r < reach.area || is_ccw(a) && (b.is_empty() || is_ccw(b)))
     }
 
+    /// The outcomes of re-checks compared with the full tests.
+    #[derive(Default)]
+    struct Outcomes {
+        same: u32,
+        broken: u32,
+    }
+
+    impl Outcomes {
+        /// Asserts that loops `moved` by 0.999 of their reach are re-checked
+        /// ([`rechecked`]) as the full tests decide (`full`), and counts it.
+        fn agree(
+            &mut self,
+            moved: &[Seg],
+            split: usize,
+            found: (&[ClosePair], &Reach),
+            full: bool,
+            round: usize,
+        ) {
+            let kept = rechecked(moved, split, found, 0.999 * found.1.moved);
+            assert_eq!(kept, full, "round {round}");
+            self.same += full as u32;
+            self.broken += !full as u32;
+        }
+
+        /// Both outcomes occurred often enough for the comparison to mean something.
+        fn assert_both(&self) {
+            let (same, broken) = (self.same, self.broken);
+            assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
+        }
+    }
+
     /// Moved by less than the pad, a loop is simple and counter-clockwise by
     /// its close pairs exactly when it is by the full test, whether the move
     /// keeps it simple or not: U-shaped loops with slots of several widths
@@ -1135,7 +1166,7 @@ mod tests {
     fn close_pairs_decide_a_loop_moved_less_than_the_pad() {
         let mut rng = crate::scene::SplitMix::new(31);
         let mut scratch = LoopScratch::default();
-        let (mut same, mut broken) = (0, 0);
+        let mut seen = Outcomes::default();
         for round in 0..400 {
             let w = [0.002, 0.02, 0.2, 0.5][round % 4];
             let n = 3 + round % 9;
@@ -1157,9 +1188,8 @@ mod tests {
                 reach.moved <= pad && reach.moved > 0.5 * pad.min(0.05),
                 "{round}"
             );
-            let r = 0.999 * reach.moved;
             let t = [rng.unit() * 5.0, rng.unit() * 5.0];
-            let moved: Vec<Seg> = jiggle(&segs, r, &mut rng)
+            let moved: Vec<Seg> = jiggle(&segs, 0.999 * reach.moved, &mut rng)
                 .iter()
                 .map(|s| Seg {
                     p: s.p.map(|q| [q[0] + t[0], q[1] + t[1]]),
@@ -1167,12 +1197,9 @@ mod tests {
                 })
                 .collect();
             let full = simple_ccw_loop(&moved, &mut scratch);
-            let kept = rechecked(&moved, segs.len(), (&pairs, &reach), r);
-            assert_eq!(kept, full, "round {round}");
-            same += full as u32;
-            broken += !full as u32;
+            seen.agree(&moved, segs.len(), (&pairs, &reach), full, round);
         }
-        assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
+        seen.assert_both();
     }
 
     /// The area reach of a close pair list bounds the moves that keep a
@@ -1202,7 +1229,7 @@ mod tests {
     fn close_pairs_decide_two_loops_moved_less_than_the_pad() {
         let mut rng = crate::scene::SplitMix::new(5);
         let mut scratch = LoopScratch::default();
-        let (mut same, mut broken) = (0, 0);
+        let mut seen = Outcomes::default();
         let a = loop_of(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]], &[0, 1, 2, 3]);
         for round in 0..800 {
             let g = [0.002, 0.02, 0.1, 0.3][round % 4];
@@ -1215,18 +1242,14 @@ mod tests {
             let pad = [0.01, 0.05, 0.1, 0.3][(round / 4) % 4];
             let mut pairs = Vec::new();
             let reach = close_pairs(&both, a.len(), pad, &mut scratch, &mut pairs).unwrap();
-            let r = 0.999 * reach.moved;
-            let moved = jiggle(&both, r, &mut rng);
+            let moved = jiggle(&both, 0.999 * reach.moved, &mut rng);
             let (ma, mb) = moved.split_at(a.len());
             let full = simple_ccw_loop(ma, &mut scratch)
                 && simple_ccw_loop(mb, &mut scratch)
                 && loops_meet_only_where_shared(ma, mb, &mut scratch);
-            let kept = rechecked(&moved, a.len(), (&pairs, &reach), r);
-            assert_eq!(kept, full, "round {round}");
-            same += full as u32;
-            broken += !full as u32;
+            seen.agree(&moved, a.len(), (&pairs, &reach), full, round);
         }
-        assert!(same > 100 && broken > 20, "both outcomes: {same} {broken}");
+        seen.assert_both();
     }
 
     /// Loops moved by up to their slack (less a hair) still pass; slacks are
