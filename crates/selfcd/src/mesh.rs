@@ -148,6 +148,46 @@ impl Topology {
         }
     }
 
+    /// This topology with the triangles renumbered: triangle `i` of the
+    /// result is triangle `order[i]` here (`order` a permutation, `tris` the
+    /// renumbered triangles). Edge and vertex ids are kept; each row of
+    /// `edge_tris` and `vertex_tris` is renumbered and sorted again, and the
+    /// owners (`owned`) are the rows' new first triangles.
+    fn reordered(&self, order: &[u32], tris: &[[u32; 3]]) -> Topology {
+        let mut new_id = vec![0u32; order.len()];
+        for (i, &t) in order.iter().enumerate() {
+            new_id[t as usize] = i as u32;
+        }
+        let renumber = |c: &Csr| {
+            let mut c = c.clone();
+            for r in 0..c.rows() {
+                let row = &mut c.items[c.offsets[r] as usize..c.offsets[r + 1] as usize];
+                row.iter_mut().for_each(|t| *t = new_id[*t as usize]);
+                row.sort_unstable();
+            }
+            c
+        };
+        let (edge_tris, vertex_tris) = (renumber(&self.edge_tris), renumber(&self.vertex_tris));
+        let tri_edges: Vec<[u32; 3]> = order.iter().map(|&t| self.tri_edges[t as usize]).collect();
+        let first = |c: &Csr, r: u32| c.items[c.offsets[r as usize] as usize];
+        let owned = (tris.iter().zip(&tri_edges).enumerate())
+            .map(|(i, (v, e))| {
+                let i = i as u32;
+                (0..3).fold(0u8, |bits, k| {
+                    bits | ((first(&vertex_tris, v[k]) == i) as u8) << k
+                        | ((first(&edge_tris, e[k]) == i) as u8) << (3 + k)
+                })
+            })
+            .collect();
+        Topology {
+            edges: self.edges.clone(),
+            tri_edges,
+            edge_tris,
+            vertex_tris,
+            owned,
+        }
+    }
+
     /// True when edge `e` has exactly two triangles (an interior edge of a manifold).
     #[inline]
     pub fn is_manifold_interior(&self, e: u32) -> bool {
@@ -357,6 +397,24 @@ impl Mesh {
             mean_edge: OnceLock::new(),
         };
         Ok((mesh, repeats))
+    }
+
+    /// The same mesh with its triangles renumbered: triangle `i` of the
+    /// result is triangle `order[i]` of this one (`order` a permutation of
+    /// the triangle ids). Vertices, edges and their ids are unchanged, so a
+    /// query on the result answers a query on this mesh once its triangle
+    /// ids are mapped back through `order` (a hierarchy's depth-first order:
+    /// [`crate::bvh::Bvh::depth_first`]).
+    pub fn reordered(&self, order: &[u32]) -> Mesh {
+        assert_eq!(order.len(), self.tris.len(), "one entry per triangle");
+        let tris: Vec<[u32; 3]> = order.iter().map(|&t| self.tris[t as usize]).collect();
+        let topo = self.topo.reordered(order, &tris);
+        Mesh {
+            rest: self.rest.clone(),
+            tris,
+            topo,
+            mean_edge: self.mean_edge.clone(),
+        }
     }
 
     /// Rest positions.

@@ -13,6 +13,7 @@
 pub mod build;
 pub mod certify;
 pub mod kept;
+pub mod order;
 pub mod patch;
 pub mod refit;
 pub mod topdown;

@@ -49,6 +49,17 @@ pub struct Impacts {
 }
 
 impl Impacts {
+    /// The vertex-triangle impacts' triangles mapped through `map` (a
+    /// renumbering), sorted again; edge-edge impacts are unchanged.
+    pub fn map_triangles(&mut self, map: &[u32]) {
+        for i in &mut self.vertex_triangle {
+            if let ElementPair::VertexTriangle(_, t) = &mut i.pair {
+                *t = map[*t as usize];
+            }
+        }
+        self.vertex_triangle.sort_unstable_by_key(key);
+    }
+
     /// The earliest time of impact, if any pair may meet during the step.
     pub fn earliest(&self) -> Option<f64> {
         self.vertex_triangle
@@ -213,14 +224,17 @@ impl BvhDetector {
     /// impact. Leaves the hierarchy fitted to the swept boxes (the next
     /// `detect` refits it).
     pub fn continuous(&mut self, x0: &[DVec3], x1: &[DVec3], thickness: f64) -> Result<Impacts> {
-        let mesh = self.mesh().clone();
-        check_args(&mesh, x0, x1, thickness)?;
+        check_args(self.mesh(), x0, x1, thickness)?;
         if thickness == 0.0 {
             self.refit_swept_cones(x0, x1);
         } else {
             self.refit_swept(x0, x1);
         }
-        Ok(swept_query(self.bvh(), &mesh, x0, x1, thickness).0)
+        let mut found = swept_query(self.bvh(), self.hierarchy_mesh(), x0, x1, thickness).0;
+        if let Some(map) = self.triangle_order() {
+            found.map_triangles(map);
+        }
+        Ok(found)
     }
 }
 

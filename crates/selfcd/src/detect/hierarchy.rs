@@ -16,13 +16,22 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// A BVH built once for the mesh, refitted and traversed each frame.
+/// The hierarchy is renumbered depth-first after its build
+/// ([`Bvh::depth_first`]): it runs on the mesh with its triangles in that
+/// order, and every answer is mapped back to the caller's triangle ids.
 /// From the second [`Detector::detect`] call on (a single call, as a
 /// one-shot query makes, pays nothing for them) the detector keeps, from
 /// frame to frame, the intersection traversal's front
 /// ([`crate::bvh::traverse::Front`]) and, for `bvh-cones-contour`, its
 /// contour certificates ([`crate::bvh::kept`]).
 pub struct BvhDetector {
+    /// The caller's mesh.
     mesh: Arc<Mesh>,
+    /// The mesh in the hierarchy's triangle order (`mesh` itself when kept
+    /// in its own order); vertex and edge ids are the caller's.
+    inner: Arc<Mesh>,
+    /// The caller's id of each triangle of `inner`, None when the same.
+    triangle_of: Option<Vec<u32>>,
     bvh: Bvh,
     method: Method,
     thickness: f64,
@@ -112,6 +121,14 @@ fn largest_move(reference: &[DVec3], positions: &[DVec3]) -> f64 {
     d * (1.0 + 1e-12)
 }
 
+/// Each pair's triangles mapped through `map`, smaller id first.
+fn map_pairs(pairs: &mut [[u32; 2]], map: &[u32]) {
+    for p in pairs {
+        let [a, b] = p.map(|t| map[t as usize]);
+        *p = [a.min(b), a.max(b)];
+    }
+}
+
 /// When a detector fits slabs ([`Bvh::fit_slabs`]). They cull node pairs
 /// whose boxes overlap but which lie apart along their normals (layers of
 /// cloth closer than their triangles are wide), and fitting them costs
@@ -150,11 +167,34 @@ impl SlabPolicy {
 const KEPT_CAP: f64 = 0.25;
 
 impl BvhDetector {
-    /// Builds the hierarchy of `mesh` for `method` (not `brute`).
+    /// Builds the hierarchy of `mesh` for `method` (not `brute`), renumbered
+    /// depth-first (the type's doc).
     pub fn new(mesh: Arc<Mesh>, method: Method, thickness: f64) -> Self {
+        let (bvh, order) = build(&mesh).depth_first();
+        let inner = Arc::new(mesh.reordered(&order));
+        Self::with_hierarchy(mesh, inner, Some(order), bvh, method, thickness)
+    }
+
+    /// [`new`](Self::new) with the hierarchy's leaves in the mesh's own
+    /// triangle order, for callers that read the hierarchy
+    /// ([`bvh`](Self::bvh)) with the mesh's triangle ids.
+    pub fn in_mesh_order(mesh: Arc<Mesh>, method: Method, thickness: f64) -> Self {
         let bvh = build(&mesh);
+        Self::with_hierarchy(mesh.clone(), mesh, None, bvh, method, thickness)
+    }
+
+    fn with_hierarchy(
+        mesh: Arc<Mesh>,
+        inner: Arc<Mesh>,
+        triangle_of: Option<Vec<u32>>,
+        bvh: Bvh,
+        method: Method,
+        thickness: f64,
+    ) -> Self {
         BvhDetector {
             mesh,
+            inner,
+            triangle_of,
             bvh,
             method,
             thickness,
@@ -174,24 +214,37 @@ impl BvhDetector {
         self.slabs.forced = on;
     }
 
-    /// The hierarchy, as refitted by the last call.
+    /// The hierarchy, as refitted by the last call. Its leaf `i` holds
+    /// triangle `i` of [`hierarchy_mesh`](Self::hierarchy_mesh).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
     }
 
+    /// The mesh with its triangles in the hierarchy's order (the caller's
+    /// vertex and edge ids).
+    pub fn hierarchy_mesh(&self) -> &Arc<Mesh> {
+        &self.inner
+    }
+
+    /// The caller's id of each triangle of [`hierarchy_mesh`](Self::hierarchy_mesh),
+    /// None when they are the same.
+    pub fn triangle_order(&self) -> Option<&[u32]> {
+        self.triangle_of.as_deref()
+    }
+
     /// Refits the boxes to the triangles swept from `x0` to `x1` (continuous queries).
     pub(crate) fn refit_swept(&mut self, x0: &[DVec3], x1: &[DVec3]) {
-        self.bvh.refit_swept(&self.mesh, x0, x1);
+        self.bvh.refit_swept(&self.inner, x0, x1);
     }
 
     /// Fits boxes and cones to the swept triangles ([`Bvh::refit_swept_cones`]).
     pub(crate) fn refit_swept_cones(&mut self, x0: &[DVec3], x1: &[DVec3]) {
-        self.bvh.refit_swept_cones(&self.mesh, x0, x1);
+        self.bvh.refit_swept_cones(&self.inner, x0, x1);
     }
 
     /// Refits boxes and cones to `positions` (already checked).
     pub fn refit(&mut self, positions: &[DVec3]) {
-        self.bvh.refit(&self.mesh, positions);
+        self.bvh.refit(&self.inner, positions);
     }
 
     /// Traverses the refitted hierarchy: intersections, and proximity when
@@ -213,7 +266,7 @@ impl BvhDetector {
         start: Start,
     ) -> Result<(Detection, Option<Front>)> {
         let t0 = Instant::now();
-        let mesh = &*self.mesh;
+        let mesh = &*self.inner;
         let opts = TraverseOptions {
             cones: self.method != Method::Bvh,
             contour: self.method == Method::BvhConesContour,
@@ -227,6 +280,9 @@ impl BvhDetector {
             }
             None => self_traverse_from(&self.bvh, mesh, positions, opts, &visitor, start),
         };
+        if let Some(map) = &self.triangle_of {
+            map_pairs(&mut pairs, map);
+        }
         pairs.sort_unstable();
         let mut det = Detection {
             pairs,
@@ -243,6 +299,9 @@ impl BvhDetector {
             let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
             near.check_output()?;
             det.proximity = collect_proximity(items);
+            if let Some(map) = &self.triangle_of {
+                det.proximity.map_triangles(map);
+            }
             proximity = c;
         }
         let s = &mut det.stats;
@@ -278,7 +337,7 @@ impl BvhDetector {
                 .unwrap_or_else(|| KeptCertificates::new(cap))
         });
         let reuse = match kept.as_mut() {
-            Some(k) => k.refit(&mut self.bvh, &self.mesh, positions),
+            Some(k) => k.refit(&mut self.bvh, &self.inner, positions),
             None => {
                 self.refit(positions);
                 None
@@ -331,7 +390,7 @@ impl BvhDetector {
     /// Fits the slabs to the refitted hierarchy when the policy says so.
     fn fit_slabs(&mut self, positions: &[DVec3]) {
         if self.slabs.fit() {
-            self.bvh.fit_slabs(&self.mesh, positions);
+            self.bvh.fit_slabs(&self.inner, positions);
         }
     }
 }

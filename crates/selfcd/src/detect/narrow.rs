@@ -125,6 +125,15 @@ fn ee_key(x: &EdgeEdge) -> (u32, u32) {
 }
 
 impl ProximityContacts {
+    /// The vertex-triangle contacts' triangles mapped through `map` (a
+    /// renumbering), sorted again; edge-edge contacts are unchanged.
+    pub fn map_triangles(&mut self, map: &[u32]) {
+        for x in &mut self.vertex_triangle {
+            x.triangle = map[x.triangle as usize];
+        }
+        self.vertex_triangle.sort_unstable_by_key(vt_key);
+    }
+
     /// Number of contacts of both kinds.
     pub fn len(&self) -> usize {
         self.vertex_triangle.len() + self.edge_edge.len()

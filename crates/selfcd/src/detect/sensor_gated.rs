@@ -156,7 +156,9 @@ impl SensorGatedDetector {
     /// (itself within [`count`, `max_count`]).
     pub fn new(mesh: Arc<Mesh>, thickness: f64, params: &SensorParams) -> Result<Self> {
         params.validate()?;
-        let bvh = BvhDetector::new(mesh.clone(), params.inner, thickness);
+        // In the mesh's order: the parts below are read off its hierarchy
+        // with the mesh's triangle ids.
+        let bvh = BvhDetector::in_mesh_order(mesh.clone(), params.inner, thickness);
         let bounds = (
             params.count,
             max_particles(mesh.n_triangles()).clamp(params.count, params.max_count),
