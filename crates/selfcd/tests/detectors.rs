@@ -512,9 +512,11 @@ fn animation(mesh: &Mesh, target: &[DVec3], steps: usize, wobble: usize) -> Vec<
 /// re-checked on their close pairs (all counted, so the kept paths are run).
 #[test]
 fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
+    use selfcd::bvh::refit::ConeFit;
     use selfcd::detect::hierarchy::BvhDetector;
     use selfcd::Detector;
     let (mut reused, mut fresh, mut skipped, mut rechecked) = (0, 0, 0, 0);
+    let (mut from_leaves, mut in_order) = (0, 0);
     for (mname, mesh) in meshes().into_iter().skip(1).take(2) {
         for (sname, shape) in shapes() {
             let frames = animation(&mesh, &shape.apply(mesh.rest()), 6, 10);
@@ -538,6 +540,20 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                     "{m} {mname}/{sname}: no frame started from a front"
                 );
             }
+            // Cones from the leaves (most frames here) or merged in the
+            // mesh's own order, frame by frame the same pairs.
+            let mut lazy = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
+            let mut merged = BvhDetector::in_mesh_order(mesh.clone(), Method::BvhConesContour, 0.0);
+            for (k, p) in frames.iter().enumerate() {
+                let got = lazy.detect(p).unwrap().pairs;
+                assert_eq!(
+                    got,
+                    merged.detect(p).unwrap().pairs,
+                    "{mname}/{sname} frame {k}"
+                );
+                from_leaves += (lazy.cones_fitted() == ConeFit::Leaves) as u32;
+                in_order += (merged.cones_fitted() == ConeFit::Leaves) as u32;
+            }
             // With slabs fitted every frame (their gaps are clearances too).
             let mut d = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
             d.force_slabs(Some(true));
@@ -549,13 +565,19 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
         }
     }
     println!(
-        "certificates reused {reused}, rechecked {rechecked}, fresh contour tests {fresh}, front jobs skipped {skipped}"
+        "certificates reused {reused}, rechecked {rechecked}, fresh contour tests {fresh}, front jobs skipped {skipped}, frames with cones from the leaves {from_leaves}"
     );
     assert!(skipped > 1000, "front jobs skipped {skipped}");
+    assert!(
+        from_leaves > 50,
+        "{from_leaves} frames fitted the leaves' cones only"
+    );
+    assert_eq!(in_order, 0, "leaves not depth-first: every cone fitted");
     assert!(rechecked > 100, "certificates rechecked {rechecked}");
     // 22,327 reused against 38,050 fresh tests when written, 33,705 against
-    // 26,672 with the twelfth landing's slacks (deterministic: the kept
-    // certificates depend on the frames only, not on threads).
+    // 26,672 with the twelfth landing's slacks, 37,809 against 11,472 with
+    // normals checked from the leaves (deterministic: the kept certificates
+    // depend on the frames only, not on threads).
     assert!(reused > 10_000, "reused {reused}, fresh {fresh}");
 }
 

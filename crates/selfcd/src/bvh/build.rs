@@ -71,6 +71,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
         cones,
         slabs: Vec::new(),
         patches: patches.finish(component),
+        spans: Vec::new(),
     }
 }
 

@@ -107,6 +107,57 @@ impl ConeCull<'_> {
     }
 }
 
+/// The cones the contour cull reads: the fitted ones, or, after a refit of
+/// the leaves' cones only ([`ConeFit::Leaves`](super::refit::ConeFit)),
+/// each internal node's computed from its leaves when asked (a kept front's
+/// frame asks for few).
+#[derive(Clone, Copy)]
+struct Cones<'a> {
+    bvh: &'a Bvh,
+    from_leaves: bool,
+}
+
+impl Cones<'_> {
+    /// The cone of node `n`.
+    #[inline]
+    fn of(&self, n: u32) -> NormalCone {
+        if self.from_leaves {
+            self.bvh.cone_from_leaves(n)
+        } else {
+            self.bvh.cones[n as usize]
+        }
+    }
+
+    /// Every normal under node `n` strictly within 90 degrees of unit `v`?
+    #[inline]
+    fn within_90_of(&self, n: u32, v: DVec3) -> bool {
+        if self.from_leaves {
+            self.bvh.leaves_within_90_of(n, v)
+        } else {
+            self.bvh.cones[n as usize].within_90_of(v)
+        }
+    }
+
+    /// The cones of adjacent nodes `a` and `b` (sharing a boundary vertex)
+    /// when both and their merge are positive: `ConeCull::adjacent_positive`
+    /// after the component test, cones from the leaves computed only for
+    /// adjacent nodes.
+    #[inline]
+    fn adjacent_positive(&self, a: u32, b: u32) -> Option<(NormalCone, NormalCone)> {
+        let p = &self.bvh.patches;
+        let adjacent = || have_common(p.boundary_of(a), p.boundary_of(b));
+        if self.from_leaves && !adjacent() {
+            return None;
+        }
+        let (ca, cb) = (self.of(a), self.of(b));
+        let ok = ca.is_positive()
+            && cb.is_positive()
+            && (self.from_leaves || adjacent())
+            && ca.merge_is_positive(&cb);
+        ok.then_some((ca, cb))
+    }
+}
+
 impl Cull for ConeCull<'_> {
     type Scratch = ();
     #[inline]
@@ -128,7 +179,7 @@ pub struct ContourCull<'a> {
     bvh: &'a Bvh,
     mesh: &'a Mesh,
     positions: &'a [DVec3],
-    cones: ConeCull<'a>,
+    cones: Cones<'a>,
     reuse: Option<&'a Reuse<'a>>,
 }
 
@@ -166,24 +217,35 @@ impl<'a> ContourCull<'a> {
             bvh,
             mesh,
             positions,
-            cones: ConeCull {
-                cones: &bvh.cones,
-                patches: &bvh.patches,
+            cones: Cones {
+                bvh,
+                from_leaves: false,
             },
             reuse: None,
         }
     }
 
     /// [`new`](Self::new), reusing the certificates of earlier frames that
-    /// still hold and recording the ones made now ([`super::kept`]).
+    /// still hold and recording the ones made now ([`super::kept`]); with
+    /// `cones` [`ConeFit::Leaves`](super::refit::ConeFit) when the refit
+    /// fitted only the leaves' cones (the internal ones are then computed
+    /// from the leaves where asked: the hierarchy's leaves must be numbered
+    /// depth-first, [`Bvh::depth_first`]).
     pub fn with_reuse(
         bvh: &'a Bvh,
         mesh: &'a Mesh,
         positions: &'a [DVec3],
         reuse: &'a Reuse<'a>,
+        cones: super::refit::ConeFit,
     ) -> Self {
+        let from_leaves = cones == super::refit::ConeFit::Leaves;
+        assert!(
+            !from_leaves || bvh.spans.len() == bvh.n_nodes(),
+            "cones from the leaves need depth-first leaves"
+        );
         ContourCull {
             reuse: Some(reuse),
+            cones: Cones { bvh, from_leaves },
             ..Self::new(bvh, mesh, positions)
         }
     }
@@ -226,14 +288,20 @@ impl<'a> ContourCull<'a> {
     /// only those pairs' edges are projected).
     fn reused(&self, r: &Reuse, a: u32, b: u32, s: &mut ContourScratch) -> Option<Reused> {
         let (k, spread) = r.get(a, b)?;
-        let cones = &self.bvh.cones;
-        if !(cones[a as usize].within_90_of(k.axis) && cones[b as usize].within_90_of(k.axis)) {
+        // The O(1) test of the spread before the normals' (O(leaves) from
+        // the leaves' cones).
+        let check = k.recheck.filter(|c| spread <= c.within);
+        if spread > k.slack && check.is_none() {
+            return None;
+        }
+        let c = self.cones;
+        if !(c.within_90_of(a, k.axis) && (a == b || c.within_90_of(b, k.axis))) {
             return None;
         }
         if spread <= k.slack {
             return Some(Reused::Slack);
         }
-        let check = k.recheck.filter(|c| spread <= c.within)?;
+        let check = check?;
         let plane = Plane::new(k.axis, check.origin);
         let (mesh, x) = (self.mesh, self.positions);
         let seg = |packed: u32| {
@@ -396,11 +464,10 @@ fn union_disk(p: &Patches, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool
 /// along the cone's axis about its box centre; counted in `c`.
 fn disk_certified(
     bvh: &Bvh,
-    n: u32,
+    (n, cone): (u32, &NormalCone),
     c: &mut Counters,
     loop_test: impl FnOnce(&[u32], &Plane) -> bool,
 ) -> bool {
-    let cone = &bvh.cones[n as usize];
     if !cone.is_positive() {
         return false;
     }
@@ -420,25 +487,26 @@ impl Cull for ContourCull<'_> {
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
         let Some(r) = self.reuse else {
-            return disk_certified(self.bvh, n, c, |contour, plane| {
+            let cone = self.cones.of(n);
+            return disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
                 self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
             });
         };
-        if self.bvh.cones[n as usize].is_positive() {
-            if let Some(how) = self.reused(r, n, n, s) {
-                how.count(c);
-                c.self_culls += 1;
-                return true;
-            }
+        // (A kept certificate's check puts every normal within 90 degrees
+        // of its axis: the cone is positive.)
+        if let Some(how) = self.reused(r, n, n, s) {
+            how.count(c);
+            c.self_culls += 1;
+            return true;
         }
-        disk_certified(self.bvh, n, c, |contour, plane| {
-            let axis = self.bvh.cones[n as usize].axis;
-            self.certify_disk(r, (n, n), contour, (axis, plane), s)
+        let cone = self.cones.of(n);
+        disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
+            self.certify_disk(r, (n, n), contour, (cone.axis, plane), s)
         })
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        if !self.cones.patches.may_touch(a, b) {
+        if !self.bvh.patches.may_touch(a, b) {
             return false;
         }
         // A kept certificate first: only adjacent nodes have one (the
@@ -449,12 +517,11 @@ impl Cull for ContourCull<'_> {
             c.pair_culls += 1;
             return true;
         }
-        if !self.cones.adjacent_positive(a, b) {
+        let Some((ca, cb)) = self.cones.adjacent_positive(a, b) else {
             return false;
-        }
-        let (ca, cb) = (&self.bvh.cones[a as usize], &self.bvh.cones[b as usize]);
+        };
         c.contour_tests += 1;
-        let ok = self.union_is_height_field(a, b, ca.merge(cb).axis, s);
+        let ok = self.union_is_height_field(a, b, ca.merge(&cb).axis, s);
         c.contour_fails += !ok as u64;
         c.pair_culls += ok as u64;
         ok
@@ -513,7 +580,8 @@ impl Cull for SweptContourCull<'_> {
     type Scratch = ContourScratch;
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        disk_certified(self.bvh, n, c, |contour, plane| {
+        let cone = self.bvh.cones[n as usize];
+        disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
             self.disk_stays_height_field(contour, plane, s)
         })
     }

@@ -67,6 +67,7 @@
 //! each frame checks the whole mesh's spread in one pass over the vertices
 //! instead of fitting the nodes' boxes: fast motion pays that pass only.
 
+use super::refit::ConeFit;
 use super::Bvh;
 use crate::geom::loop2d::{round_down, ClosePair, Reach};
 use crate::geom::Aabb;
@@ -286,16 +287,20 @@ impl KeptCertificates {
         }
     }
 
-    /// Refits `bvh` to `positions` and, in the same passes, the displacement
-    /// boxes of its nodes; resets the reference when they spread beyond the
-    /// cap. Returns this frame's view for the traversal, or None when the
-    /// plain tests should run (the reference was reset this frame and the last).
+    /// Refits `bvh` to `positions` (its cones as `cones` says) and, in the
+    /// same passes, the displacement boxes of its nodes; resets the
+    /// reference when they spread beyond the cap. Returns this frame's view
+    /// for the traversal, or None when the plain tests should run (the
+    /// reference was reset this frame and the last; they read every cone,
+    /// so after a reset every cone is fitted).
     pub fn refit<'a>(
         &'a mut self,
         bvh: &mut Bvh,
         mesh: &Mesh,
         positions: &[DVec3],
+        cones: ConeFit,
     ) -> Option<Reuse<'a>> {
+        let cones = if self.reset_last { ConeFit::All } else { cones };
         // The whole mesh's displacement box, where it can decide: after a
         // reset (has the mesh settled?) or with certificates to hold.
         let same = self.reference.len() == positions.len();
@@ -306,7 +311,7 @@ impl KeptCertificates {
         if reset {
             bvh.refit(mesh, positions);
         } else if let Some(b) = whole.filter(|b| self.whole_pays(half_diagonal(b), bvh.n_nodes())) {
-            bvh.refit(mesh, positions);
+            bvh.refit_cones(mesh, positions, cones);
             self.spread.clear();
             self.spread.push(b);
             reset = !settled(&b);
@@ -316,6 +321,7 @@ impl KeptCertificates {
             bvh.refit_also(
                 mesh,
                 positions,
+                cones,
                 &mut self.spread,
                 |t, x| {
                     let [a, b, c] = tris[t].map(|v| r[v as usize]);

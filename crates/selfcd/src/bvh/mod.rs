@@ -41,6 +41,11 @@ pub struct Bvh {
     pub slabs: Vec<Slab>,
     /// Contour and patch topology of every node, fixed at build time.
     pub patches: patch::Patches,
+    /// The leaves under every node as one id range `[start, end)`, when the
+    /// leaves are numbered depth-first ([`Bvh::depth_first`]); empty
+    /// otherwise. A node's cone can then be computed from its leaves'
+    /// ([`cone_from_leaves`](Self::cone_from_leaves)).
+    pub spans: Vec<[u32; 2]>,
 }
 
 impl Bvh {
@@ -77,6 +82,32 @@ impl Bvh {
         k
     }
 
+    /// The cone of node `n` computed from its leaves' cones
+    /// ([`NormalCone::around_leaves`]), for a refit that fitted the leaves'
+    /// cones only ([`refit::ConeFit::Leaves`]): O(leaves under `n`). The
+    /// fitted cone where the leaves are not numbered depth-first.
+    pub fn cone_from_leaves(&self, n: u32) -> NormalCone {
+        match self.spans.get(n as usize) {
+            Some(&[lo, hi]) if !self.is_leaf(n) => {
+                NormalCone::around_leaves(&self.cones[lo as usize..hi as usize])
+            }
+            _ => self.cones[n as usize],
+        }
+    }
+
+    /// True when every normal under node `n` lies strictly within 90
+    /// degrees of unit `v`, from its leaves' cones
+    /// ([`NormalCone::leaves_within_90_of`]; O(leaves under `n`)), or from
+    /// its fitted cone where the leaves are not numbered depth-first.
+    pub fn leaves_within_90_of(&self, n: u32, v: glam::DVec3) -> bool {
+        match self.spans.get(n as usize) {
+            Some(&[lo, hi]) => {
+                NormalCone::leaves_within_90_of(&self.cones[lo as usize..hi as usize], v)
+            }
+            None => self.cones[n as usize].within_90_of(v),
+        }
+    }
+
     /// Total number of nodes (2 n - 1).
     pub fn n_nodes(&self) -> usize {
         self.boxes.len()
@@ -111,5 +142,6 @@ impl Bvh {
             + csr(&self.patches.boundary)
             + self.patches.euler.capacity() * 4
             + self.patches.component.capacity()
+            + self.spans.capacity() * size_of::<[u32; 2]>()
     }
 }

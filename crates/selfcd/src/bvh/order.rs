@@ -57,10 +57,17 @@ impl Bvh {
                 new_id[v as usize] = level.start + k as u32;
             }
         }
-        let children = old_of[n..]
+        let children: Vec<[u32; 2]> = old_of[n..]
             .iter()
             .map(|&v| self.children_of(v).map(|c| new_id[c as usize]))
             .collect();
+        // Each node's leaves: its left child's range, then its right's.
+        let mut spans: Vec<[u32; 2]> = (0..n as u32).map(|i| [i, i + 1]).collect();
+        for &[l, r] in &children {
+            let ([lo, mid], [start, hi]) = (spans[l as usize], spans[r as usize]);
+            debug_assert_eq!(mid, start, "depth-first leaves");
+            spans.push([lo, hi]);
+        }
         let p = &self.patches;
         let bvh = Bvh {
             n_leaves: n,
@@ -79,6 +86,7 @@ impl Bvh {
                 euler: pick(&p.euler, &old_of),
                 component: pick(&p.component, &old_of),
             },
+            spans,
         };
         (bvh, order)
     }
@@ -146,6 +154,7 @@ mod tests {
                 "left subtree's leaves just before the right's"
             );
             span[p as usize] = (x.0, y.1, x.2 + y.2);
+            assert_eq!(df.spans[p as usize], [x.0, y.1 + 1]);
         }
         assert_eq!(
             span[df.root() as usize],

@@ -14,27 +14,47 @@ const PAR_MIN: usize = 4096;
 /// are scattered on meshes whose triangle order is not a grid's.
 const AHEAD: usize = 8;
 
+/// Which cones a refit fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConeFit {
+    /// Every node's, the leaves' and their merges up the levels.
+    All,
+    /// The leaves' only: every internal node's cone is set to the full cone
+    /// (which culls nothing), and a reader that needs one computes it from
+    /// its leaves ([`Bvh::cone_from_leaves`], [`Bvh::leaves_within_90_of`]).
+    /// For frames that read few internal cones: the merges are most of a
+    /// refit's arithmetic.
+    Leaves,
+}
+
 impl Bvh {
     /// Refits every box and cone to `positions` (same vertex count as the mesh,
     /// checked by the caller).
     pub fn refit(&mut self, mesh: &Mesh, positions: &[DVec3]) {
+        self.refit_cones(mesh, positions, ConeFit::All);
+    }
+
+    /// [`refit`](Self::refit), fitting the cones `cones` says.
+    pub fn refit_cones(&mut self, mesh: &Mesh, positions: &[DVec3], cones: ConeFit) {
         self.refit_also(
             mesh,
             positions,
+            cones,
             &mut none(self.n_nodes()),
             |_, _| (),
             |_, _| (),
         );
     }
 
-    /// [`refit`](Self::refit), also filling `values` (one per node) in the
-    /// same passes: `leaf(t, corners)` for leaf `t`, the `merge` of the
-    /// children for every internal node. One walk over the triangles instead
-    /// of two (the kept certificates' displacement boxes).
+    /// [`refit_cones`](Self::refit_cones), also filling `values` (one per
+    /// node) in the same passes: `leaf(t, corners)` for leaf `t`, the `merge`
+    /// of the children for every internal node. One walk over the triangles
+    /// instead of two (the kept certificates' displacement boxes).
     pub fn refit_also<T: Copy + Send + Sync>(
         &mut self,
         mesh: &Mesh,
         positions: &[DVec3],
+        cones: ConeFit,
         values: &mut [T],
         leaf: impl Fn(usize, &[DVec3; 3]) -> T + Sync,
         merge: impl Fn(&T, &T) -> T + Sync,
@@ -44,7 +64,7 @@ impl Bvh {
             let cone = NormalCone::of_triangle(c[0], c[1], c[2]);
             (Aabb::from_points(&c), cone, leaf(t, &c))
         };
-        self.refit_with(values, fit, merge);
+        self.refit_with(cones, values, fit, merge);
     }
 
     /// Refits the boxes to the triangles swept linearly from `x0` to `x1` (for
@@ -53,7 +73,7 @@ impl Bvh {
     /// the cones too, for the swept certificate at thickness 0.
     pub fn refit_swept(&mut self, mesh: &Mesh, x0: &[DVec3], x1: &[DVec3]) {
         let fit = |t| (mesh.swept_box(x0, x1, t), NormalCone::FULL, ());
-        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
+        self.refit_with(ConeFit::All, &mut none(self.n_nodes()), fit, |_, _| ());
     }
 
     /// Refits the boxes to the swept triangles, as [`refit_swept`](Self::refit_swept),
@@ -65,14 +85,15 @@ impl Bvh {
             let b = Aabb::from_points(&c0).union(&Aabb::from_points(&c1));
             (b, NormalCone::of_swept_triangle(c0, c1), ())
         };
-        self.refit_with(&mut none(self.n_nodes()), fit, |_, _| ());
+        self.refit_with(ConeFit::All, &mut none(self.n_nodes()), fit, |_, _| ());
     }
 
     /// Sets every leaf's box, cone and value from `leaf(triangle)`, then
     /// merges upwards (values of a zero-sized type, as [`none`], are not
-    /// merged: there is nothing to fill).
+    /// merged: there is nothing to fill; cones as `cones` says).
     fn refit_with<T: Copy + Send + Sync>(
         &mut self,
+        fit: ConeFit,
         values: &mut [T],
         leaf: impl Fn(usize) -> (Aabb, NormalCone, T) + Sync,
         merge: impl Fn(&T, &T) -> T + Sync,
@@ -98,7 +119,7 @@ impl Bvh {
         }
         let mut boxes = std::mem::take(&mut self.boxes);
         let mut cones = std::mem::take(&mut self.cones);
-        self.merge_up_all(&mut boxes, &mut cones, values, merge);
+        self.merge_up_all(fit, &mut boxes, &mut cones, values, merge);
         (self.boxes, self.cones) = (boxes, cones);
     }
 
@@ -108,6 +129,7 @@ impl Bvh {
     /// ids and walk the levels three times).
     fn merge_up_all<T: Copy + Send + Sync>(
         &self,
+        fit: ConeFit,
         boxes: &mut [Aabb],
         cones: &mut [NormalCone],
         values: &mut [T],
@@ -125,7 +147,9 @@ impl Bvh {
                 if let Some(&[l, r]) = kids.get(i + AHEAD) {
                     for k in [l, r].map(|k| k as usize) {
                         crate::prefetch::prefetch(&b_done[k]);
-                        crate::prefetch::prefetch(&c_done[k]);
+                        if fit == ConeFit::All {
+                            crate::prefetch::prefetch(&c_done[k]);
+                        }
                         if std::mem::size_of::<T>() > 0 {
                             crate::prefetch::prefetch(&v_done[k]);
                         }
@@ -133,7 +157,10 @@ impl Bvh {
                 }
                 let [l, r] = kids[i].map(|k| k as usize);
                 *b = b_done[l].union(&b_done[r]);
-                *c = c_done[l].merge(&c_done[r]);
+                *c = match fit {
+                    ConeFit::All => c_done[l].merge(&c_done[r]),
+                    ConeFit::Leaves => NormalCone::FULL,
+                };
                 if std::mem::size_of::<T>() > 0 {
                     *v = merge(&v_done[l], &v_done[r]);
                 }

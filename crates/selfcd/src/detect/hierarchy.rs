@@ -4,6 +4,7 @@ use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACT
 use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
 use crate::bvh::kept::{fold_moves, KeptCertificates, Reuse};
+use crate::bvh::refit::ConeFit;
 use crate::bvh::traverse::{
     self_traverse, self_traverse_from, traverse_from, Clearances, Front, Start, TraverseOptions,
 };
@@ -40,6 +41,8 @@ pub struct BvhDetector {
     frames: u64,
     slabs: SlabPolicy,
     front: Option<KeptFront>,
+    /// The cones the last refit fitted.
+    cones: ConeFit,
 }
 
 /// The intersection traversal's front, its length and the mean edge length
@@ -203,6 +206,7 @@ impl BvhDetector {
             frames: 0,
             slabs: SlabPolicy::default(),
             front: None,
+            cones: ConeFit::All,
         }
     }
 
@@ -218,6 +222,14 @@ impl BvhDetector {
     /// triangle `i` of [`hierarchy_mesh`](Self::hierarchy_mesh).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
+    }
+
+    /// The cones the last refit fitted: [`ConeFit::Leaves`] in the frames
+    /// of a sequence that start from a kept front (the contour cull then
+    /// computes the few internal cones it asks for from the leaves), else
+    /// every cone.
+    pub fn cones_fitted(&self) -> ConeFit {
+        self.cones
     }
 
     /// The mesh with its triangles in the hierarchy's order (the caller's
@@ -252,17 +264,18 @@ impl BvhDetector {
     /// distance). Fills every field but the refit and sensor times.
     /// Errors: more proximity contacts than `max_contacts` ([`crate::Error::TooManyContacts`]).
     pub fn traverse(&self, positions: &[DVec3]) -> Result<Detection> {
-        self.traverse_with(positions, None, Start::Root)
+        self.traverse_with(positions, None, ConeFit::All, Start::Root)
             .map(|(det, _)| det)
     }
 
     /// [`traverse`](Self::traverse) from `start` (returning the front when
     /// it records one), the contour cull reusing kept certificates through
-    /// `reuse` when given.
+    /// `reuse` when given, after a refit that fitted `cones`.
     fn traverse_with(
         &self,
         positions: &[DVec3],
         reuse: Option<&Reuse>,
+        cones: ConeFit,
         start: Start,
     ) -> Result<(Detection, Option<Front>)> {
         let t0 = Instant::now();
@@ -275,7 +288,7 @@ impl BvhDetector {
         let visitor = Intersect { mesh, positions };
         let (mut pairs, counters, front) = match reuse {
             Some(r) => {
-                let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r);
+                let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r, cones);
                 traverse_from(&self.bvh, mesh, 0.0, &cull, &visitor, start)
             }
             None => self_traverse_from(&self.bvh, mesh, positions, opts, &visitor, start),
@@ -323,13 +336,29 @@ impl BvhDetector {
     /// displacement boxes and the slabs when on), then the traversal.
     fn detect_frame(&mut self, positions: &[DVec3]) -> Result<Detection> {
         self.mesh.check_positions(positions)?;
-        let t0 = Instant::now();
         self.frames += 1;
         // From the second frame on (a sequence, not a single query) the
         // traversal keeps its front and the contour cull its certificates;
         // their displacement boxes are fitted with the refit, and timed with it.
         let sequence = self.frames >= 2;
+        let start = if sequence {
+            KeptFront::start(self.front.as_ref(), positions)
+        } else {
+            Start::Root
+        };
+        let t0 = Instant::now();
         let keeps = self.method == Method::BvhConesContour && sequence;
+        // From a kept front the contour cull asks few internal cones (its
+        // kept certificates check their normals from the leaves): the refit
+        // fits the leaves' cones only (`ConeFit`), unless slabs, fitted
+        // along every node's axis, need them all.
+        let from_front = matches!(start, Start::Front(..));
+        let cones = if keeps && from_front && !self.slabs.fit() && !self.bvh.spans.is_empty() {
+            ConeFit::Leaves
+        } else {
+            ConeFit::All
+        };
+        self.cones = cones;
         let cap = KEPT_CAP * self.mesh.mean_edge_length();
         let mut kept = keeps.then(|| {
             self.kept
@@ -337,22 +366,18 @@ impl BvhDetector {
                 .unwrap_or_else(|| KeptCertificates::new(cap))
         });
         let reuse = match kept.as_mut() {
-            Some(k) => k.refit(&mut self.bvh, &self.inner, positions),
+            Some(k) => k.refit(&mut self.bvh, &self.inner, positions, cones),
             None => {
-                self.refit(positions);
+                self.bvh.refit(&self.inner, positions);
                 None
             }
         };
-        self.fit_slabs(positions);
+        if self.slabs.fit() {
+            self.bvh.fit_slabs(&self.inner, positions);
+        }
         let refit_time = t0.elapsed().as_secs_f64();
-        let start = if sequence {
-            KeptFront::start(self.front.as_ref(), positions)
-        } else {
-            Start::Root
-        };
-        let from_kept = matches!(start, Start::Front(..));
         let clearances = start.clearances();
-        let det = self.traverse_with(positions, reuse.as_ref(), start);
+        let det = self.traverse_with(positions, reuse.as_ref(), cones, start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
             k.keep(fresh.unwrap_or_default());
@@ -361,7 +386,7 @@ impl BvhDetector {
         let (mut det, front) = det?;
         if let Some(front) = front {
             let (from_root, edge, mut reference) = match self.front.take() {
-                Some(k) if from_kept => (k.from_root, k.edge, k.reference),
+                Some(k) if from_front => (k.from_root, k.edge, k.reference),
                 k => {
                     let edge = self.mesh.mean_edge_length_at(positions);
                     (
@@ -385,13 +410,6 @@ impl BvhDetector {
         }
         det.stats.refit_time = refit_time;
         Ok(det)
-    }
-
-    /// Fits the slabs to the refitted hierarchy when the policy says so.
-    fn fit_slabs(&mut self, positions: &[DVec3]) {
-        if self.slabs.fit() {
-            self.bvh.fit_slabs(&self.inner, positions);
-        }
     }
 }
 

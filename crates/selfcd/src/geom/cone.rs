@@ -195,6 +195,68 @@ impl NormalCone {
         NormalCone { axis, quarter }
     }
 
+    /// The cone of a run of leaf cones (each one triangle's normal,
+    /// widened by its error, as [`of_triangle`](Self::of_triangle) makes
+    /// them), computed from the leaves directly instead of by merges:
+    /// [`within_90_around`](Self::within_90_around) an axis, widened by the
+    /// largest leaf's half-angle, so it holds every direction of every leaf.
+    /// The axis is the leaves' mean or, where that leaves a wider cone, the
+    /// bisector of the leaf farthest from the mean and the leaf farthest
+    /// from that one (Ritter's start for bounding spheres): within twice the
+    /// narrowest cone's half-angle. The full cone when a leaf is full or
+    /// wider than 90 degrees, when there is none, or when the cone would not
+    /// be positive (only positive cones certify anything).
+    pub fn around_leaves(leaves: &[NormalCone]) -> NormalCone {
+        if leaves.iter().any(|c| !c.is_leaf_like()) {
+            return NormalCone::FULL;
+        }
+        let widest = leaves.iter().fold(0.0f64, |w, c| w.max(c.quarter.s));
+        let mean = leaves
+            .iter()
+            .map(|c| c.axis)
+            .sum::<DVec3>()
+            .normalize_or_zero();
+        let farthest = |a: DVec3| {
+            let least = leaves.iter().map(|c| (a.dot(c.axis), c.axis));
+            least.fold(
+                (f64::INFINITY, DVec3::ZERO),
+                |x, y| if y.0 < x.0 { y } else { x },
+            )
+        };
+        let (dot, p) = farthest(mean);
+        let bisector = (p + farthest(p).1).normalize_or_zero();
+        let (axis, least) = match farthest(bisector) {
+            (d, q) if d > dot => (bisector, q),
+            _ => (mean, p),
+        };
+        // A leaf's half-angle is 2q with sin q = s, and q <= 1.12 s for q
+        // up to 45 degrees (`is_leaf_like`).
+        Self::within_90_around(axis, least, 2.24 * widest).unwrap_or(NormalCone::FULL)
+    }
+
+    /// True when every direction under each of `leaves` (cones as
+    /// [`around_leaves`](Self::around_leaves) takes) lies strictly within
+    /// 90 degrees of unit `v`, with the margin of
+    /// [`within_90_of`](Self::within_90_of) (1e-9 on a cosine): by one dot
+    /// product a leaf, where `within_90_of` takes a square root. A leaf of axis a and
+    /// half-angle h = 2q holds directions within 90 degrees of v when
+    /// angle(a, v) < 90 - h, i.e. cos angle(a, v) > sin h, and sin h <= 2 sin q = 2s.
+    /// With a and v unit up to a few eps, the computed dot is within 8 eps
+    /// of that cosine, far below the margin added.
+    pub fn leaves_within_90_of(leaves: &[NormalCone], v: DVec3) -> bool {
+        leaves.iter().all(|c| {
+            c.is_leaf_like()
+                && c.axis.dot(v) > 2.0 * c.quarter.s + POSITIVE_MARGIN + 16.0 * f64::EPSILON
+        })
+    }
+
+    /// A cone narrow enough for the leaf bounds above: not full, and its
+    /// quarter angle at most 45 degrees (c >= s).
+    #[inline]
+    fn is_leaf_like(&self) -> bool {
+        self.quarter.c >= self.quarter.s && self.quarter.s >= 0.0
+    }
+
     /// [`around`](Self::around) when `least` is the normal with the least
     /// dot product with `axis` and that dot is not negative (`None`
     /// otherwise, or for a zero axis): callers that scan the normals their
@@ -441,12 +503,77 @@ enum Merged {
 mod tests {
     use super::*;
     use crate::scene::SplitMix;
-    use std::f64::consts::{FRAC_PI_4, PI};
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
     fn holds(outer: &NormalCone, inner: &NormalCone) -> bool {
         *outer == NormalCone::FULL
             || outer.axis.dot(inner.axis).clamp(-1.0, 1.0).acos() + inner.half_angle()
                 <= outer.half_angle() + 1e-12
+    }
+
+    /// Leaf cones of triangles tilted up to `tilt` radians from +z.
+    fn leaves(rng: &mut SplitMix, count: usize, tilt: f64) -> Vec<NormalCone> {
+        (0..count)
+            .map(|_| {
+                let (phi, t) = (2.0 * PI * rng.unit(), tilt * rng.unit());
+                let d = DVec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos());
+                // A triangle with normal d (up to rounding), at some scale.
+                let u = d.any_orthonormal_vector() * (0.1 + rng.unit());
+                let w = d.cross(u);
+                let p = rng.direction() * 3.0;
+                NormalCone::of_triangle(p, p + u, p + w)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn cones_around_leaves_hold_every_leaf() {
+        let mut rng = SplitMix::new(11);
+        for round in 0..300 {
+            let tilt = [0.1, 0.8, 1.4, 1.6, 2.5][round % 5];
+            let ls = leaves(&mut rng, 1 + round % 40, tilt);
+            let c = NormalCone::around_leaves(&ls);
+            assert!(ls.iter().all(|l| holds(&c, l)), "round {round}");
+            let merged = ls[1..].iter().fold(ls[0], |m, l| m.merge(l));
+            // Positive when the merged cone (no narrower than the narrowest)
+            // is under 45 degrees: the mean axis is within twice that.
+            if merged.half_angle() < 0.5 * FRAC_PI_2 {
+                assert!(c.is_positive(), "round {round}");
+            }
+            // Where positive, every leaf (with its width) within 90 degrees.
+            if c.is_positive() {
+                assert!(ls.iter().all(|l| l.axis.dot(c.axis).clamp(-1.0, 1.0).acos()
+                    + l.half_angle()
+                    < FRAC_PI_2));
+            }
+        }
+        assert_eq!(NormalCone::around_leaves(&[]), NormalCone::FULL);
+        let flat = NormalCone::of_triangle(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X);
+        assert_eq!(NormalCone::around_leaves(&[flat]), NormalCone::FULL);
+    }
+
+    /// The dot-product test agrees with each leaf's own `within_90_of` and
+    /// with the angles themselves, and never passes a full (degenerate) leaf.
+    #[test]
+    fn leaves_within_90_by_dot_products() {
+        let mut rng = SplitMix::new(12);
+        for round in 0..2000 {
+            let ls = leaves(&mut rng, 1 + round % 8, 1.7);
+            let v = rng.direction();
+            let fast = NormalCone::leaves_within_90_of(&ls, v);
+            let each = ls.iter().all(|l| l.within_90_of(v));
+            let angles = ls
+                .iter()
+                .all(|l| l.axis.dot(v).clamp(-1.0, 1.0).acos() + l.half_angle() < FRAC_PI_2);
+            assert!(!fast || (each && angles), "round {round}");
+            if each {
+                // Only leaves within a hair of 90 degrees may differ.
+                let near = ls.iter().any(|l| l.axis.dot(v).abs() < 1e-6);
+                assert!(fast || near, "round {round}");
+            }
+        }
+        let flat = NormalCone::of_triangle(DVec3::ZERO, DVec3::X, 2.0 * DVec3::X);
+        assert!(!NormalCone::leaves_within_90_of(&[flat], DVec3::Z));
     }
 
     #[test]
