@@ -4,7 +4,10 @@
 //! boxes and normal cones are refitted ([`refit`]). All data lives in flat
 //! arrays indexed by node id: nodes `0..n` are the leaves (leaf `i` holds
 //! triangle `i`), internal nodes follow in creation order, so every child has a
-//! smaller id than its parent and the root is the last node.
+//! smaller id than its parent and the root is the last node. A kept detector
+//! renumbers its hierarchy depth-first ([`order`]: every subtree's leaves one
+//! id range, for memory locality, and for cones computed from the leaves)
+//! and runs it on the mesh with its triangles in that order.
 //!
 //! A one-shot query (no later frames to amortise a build over) uses its own
 //! hierarchy instead, built top-down only where its certificates fail
