@@ -554,6 +554,11 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                 from_leaves += (lazy.cones_fitted() == ConeFit::Leaves) as u32;
                 in_order += (merged.cones_fitted() == ConeFit::Leaves) as u32;
             }
+            // A plain traversal of the last refit (internal cones stale when
+            // it fitted the leaves' only) computes them from the leaves.
+            let last = frames.last().unwrap();
+            let want = detect(&mesh, Method::Brute, last, 0.0).pairs;
+            assert_eq!(lazy.traverse(last).unwrap().pairs, want, "{mname}/{sname}");
             // With slabs fitted every frame (their gaps are clearances too).
             let mut d = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
             d.force_slabs(Some(true));

@@ -72,6 +72,7 @@ pub fn build(mesh: &Mesh) -> Bvh {
         slabs: Vec::new(),
         patches: patches.finish(component),
         spans: Vec::new(),
+        cones_fit: super::refit::ConeFit::All,
     }
 }
 

@@ -31,6 +31,7 @@
 
 use super::kept::{LoopPairs, Reuse};
 use super::patch::{count_common, have_common, merge_contours, project_contour, unpack, Patches};
+use super::refit::ConeFit;
 use super::Bvh;
 use crate::geom::loop2d::{
     close_pairs, is_ccw, loops_meet_only_where_shared, loops_meet_only_where_shared_slack,
@@ -88,7 +89,20 @@ pub struct ConeCull<'a> {
     pub patches: &'a Patches,
 }
 
-impl ConeCull<'_> {
+impl<'a> ConeCull<'a> {
+    /// The cull of `bvh`, whose every cone the last refit fitted.
+    pub fn new(bvh: &'a Bvh) -> Self {
+        assert_eq!(
+            bvh.cones_fit,
+            ConeFit::All,
+            "the cone cull reads every cone"
+        );
+        ConeCull {
+            cones: &bvh.cones,
+            patches: &bvh.patches,
+        }
+    }
+
     /// Are nodes `a` and `b` adjacent with a positive merged cone? Cheapest
     /// first: most overlapping pairs in layered cloth lie in different mesh
     /// components (one byte per node says so), the merged cone can only be
@@ -108,7 +122,7 @@ impl ConeCull<'_> {
 }
 
 /// The cones the contour cull reads: the fitted ones, or, after a refit of
-/// the leaves' cones only ([`ConeFit::Leaves`](super::refit::ConeFit)),
+/// the leaves' cones only ([`ConeFit::Leaves`]),
 /// each internal node's computed from its leaves when asked (a kept front's
 /// frame asks for few).
 #[derive(Clone, Copy)]
@@ -211,7 +225,9 @@ pub struct ContourScratch {
 }
 
 impl<'a> ContourCull<'a> {
-    /// Certificates for `bvh` refitted to `positions`.
+    /// Certificates for `bvh` refitted to `positions` (its internal cones
+    /// computed from the leaves where the refit fitted the leaves' only,
+    /// [`Bvh::cones_fit`]).
     pub fn new(bvh: &'a Bvh, mesh: &'a Mesh, positions: &'a [DVec3]) -> Self {
         ContourCull {
             bvh,
@@ -219,33 +235,22 @@ impl<'a> ContourCull<'a> {
             positions,
             cones: Cones {
                 bvh,
-                from_leaves: false,
+                from_leaves: bvh.cones_fit == ConeFit::Leaves,
             },
             reuse: None,
         }
     }
 
     /// [`new`](Self::new), reusing the certificates of earlier frames that
-    /// still hold and recording the ones made now ([`super::kept`]); with
-    /// `cones` [`ConeFit::Leaves`](super::refit::ConeFit) when the refit
-    /// fitted only the leaves' cones (the internal ones are then computed
-    /// from the leaves where asked: the hierarchy's leaves must be numbered
-    /// depth-first, [`Bvh::depth_first`]).
+    /// still hold and recording the ones made now ([`super::kept`]).
     pub fn with_reuse(
         bvh: &'a Bvh,
         mesh: &'a Mesh,
         positions: &'a [DVec3],
         reuse: &'a Reuse<'a>,
-        cones: super::refit::ConeFit,
     ) -> Self {
-        let from_leaves = cones == super::refit::ConeFit::Leaves;
-        assert!(
-            !from_leaves || bvh.spans.len() == bvh.n_nodes(),
-            "cones from the leaves need depth-first leaves"
-        );
         ContourCull {
             reuse: Some(reuse),
-            cones: Cones { bvh, from_leaves },
             ..Self::new(bvh, mesh, positions)
         }
     }
@@ -554,10 +559,7 @@ impl<'a> SweptContourCull<'a> {
             mesh,
             x0,
             x1,
-            cones: ConeCull {
-                cones: &bvh.cones,
-                patches: &bvh.patches,
-            },
+            cones: ConeCull::new(bvh),
         }
     }
 
@@ -641,10 +643,7 @@ mod tests {
         let mut bvh = build(mesh);
         bvh.refit(mesh, mesh.rest());
         let root = bvh.root();
-        let cones = ConeCull {
-            cones: &bvh.cones,
-            patches: &bvh.patches,
-        };
+        let cones = ConeCull::new(&bvh);
         let contour = ContourCull::new(&bvh, mesh, mesh.rest());
         let mut c = Counters::default();
         (

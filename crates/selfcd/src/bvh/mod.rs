@@ -37,8 +37,11 @@ pub struct Bvh {
     pub levels: Vec<std::ops::Range<u32>>,
     /// Box of every node, refitted each frame.
     pub boxes: Vec<Aabb>,
-    /// Normal cone of every node, refitted each frame.
+    /// Normal cone of every node, refitted each frame (the internal nodes'
+    /// only when [`cones_fit`](Self::cones_fit) is [`refit::ConeFit::All`]).
     pub cones: Vec<NormalCone>,
+    /// Which cones the last refit (or the build) fitted.
+    pub cones_fit: refit::ConeFit,
     /// Slab of every node along its cone's axis ([`Slab`]) when fitted
     /// ([`Bvh::fit_slabs`], after a refit); empty otherwise.
     pub slabs: Vec<Slab>,

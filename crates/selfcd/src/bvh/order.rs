@@ -75,6 +75,7 @@ impl Bvh {
             levels: self.levels.clone(),
             boxes: pick(&self.boxes, &old_of),
             cones: pick(&self.cones, &old_of),
+            cones_fit: self.cones_fit,
             slabs: if self.has_slabs() {
                 pick(&self.slabs, &old_of)
             } else {

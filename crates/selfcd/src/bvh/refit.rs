@@ -19,11 +19,13 @@ const AHEAD: usize = 8;
 pub enum ConeFit {
     /// Every node's, the leaves' and their merges up the levels.
     All,
-    /// The leaves' only: every internal node's cone is set to the full cone
-    /// (which culls nothing), and a reader that needs one computes it from
-    /// its leaves ([`Bvh::cone_from_leaves`], [`Bvh::leaves_within_90_of`]).
-    /// For frames that read few internal cones: the merges are most of a
-    /// refit's arithmetic.
+    /// The leaves' only: the internal nodes' cones are left stale
+    /// ([`Bvh::cones_fit`] says so), and a reader that needs one computes it
+    /// from its leaves ([`Bvh::cone_from_leaves`],
+    /// [`Bvh::leaves_within_90_of`]); the hierarchy's leaves must be
+    /// numbered depth-first ([`Bvh::depth_first`]). For frames that read few
+    /// internal cones: the merges are most of a refit's arithmetic, and not
+    /// writing the cones saves a pass over their memory.
     Leaves,
 }
 
@@ -100,6 +102,11 @@ impl Bvh {
     ) {
         let n = self.n_leaves;
         assert_eq!(values.len(), self.n_nodes(), "one value per node");
+        assert!(
+            fit == ConeFit::All || self.spans.len() == self.n_nodes(),
+            "cones from the leaves need depth-first leaves"
+        );
+        self.cones_fit = fit;
         self.slabs.clear(); // stale now; `fit_slabs` refits them
         let (boxes, cones) = (&mut self.boxes[..n], &mut self.cones[..n]);
         let set = |t: usize, (b, c, v): (&mut Aabb, &mut NormalCone, &mut T)| {
@@ -157,10 +164,9 @@ impl Bvh {
                 }
                 let [l, r] = kids[i].map(|k| k as usize);
                 *b = b_done[l].union(&b_done[r]);
-                *c = match fit {
-                    ConeFit::All => c_done[l].merge(&c_done[r]),
-                    ConeFit::Leaves => NormalCone::FULL,
-                };
+                if fit == ConeFit::All {
+                    *c = c_done[l].merge(&c_done[r]);
+                }
                 if std::mem::size_of::<T>() > 0 {
                     *v = merge(&v_done[l], &v_done[r]);
                 }
@@ -191,6 +197,11 @@ impl Bvh {
     /// the next refit; none are fitted (and none bound anything) where
     /// coordinates exceed 1e300.
     pub fn fit_slabs(&mut self, mesh: &Mesh, positions: &[DVec3]) {
+        assert_eq!(
+            self.cones_fit,
+            ConeFit::All,
+            "slabs lie along every node's cone axis"
+        );
         let Some(err) = self.slab_error() else {
             self.slabs.clear();
             return;

@@ -41,8 +41,6 @@ pub struct BvhDetector {
     frames: u64,
     slabs: SlabPolicy,
     front: Option<KeptFront>,
-    /// The cones the last refit fitted.
-    cones: ConeFit,
 }
 
 /// The intersection traversal's front, its length and the mean edge length
@@ -206,7 +204,6 @@ impl BvhDetector {
             frames: 0,
             slabs: SlabPolicy::default(),
             front: None,
-            cones: ConeFit::All,
         }
     }
 
@@ -229,7 +226,7 @@ impl BvhDetector {
     /// computes the few internal cones it asks for from the leaves), else
     /// every cone.
     pub fn cones_fitted(&self) -> ConeFit {
-        self.cones
+        self.bvh.cones_fit
     }
 
     /// The mesh with its triangles in the hierarchy's order (the caller's
@@ -264,18 +261,17 @@ impl BvhDetector {
     /// distance). Fills every field but the refit and sensor times.
     /// Errors: more proximity contacts than `max_contacts` ([`crate::Error::TooManyContacts`]).
     pub fn traverse(&self, positions: &[DVec3]) -> Result<Detection> {
-        self.traverse_with(positions, None, ConeFit::All, Start::Root)
+        self.traverse_with(positions, None, Start::Root)
             .map(|(det, _)| det)
     }
 
     /// [`traverse`](Self::traverse) from `start` (returning the front when
     /// it records one), the contour cull reusing kept certificates through
-    /// `reuse` when given, after a refit that fitted `cones`.
+    /// `reuse` when given.
     fn traverse_with(
         &self,
         positions: &[DVec3],
         reuse: Option<&Reuse>,
-        cones: ConeFit,
         start: Start,
     ) -> Result<(Detection, Option<Front>)> {
         let t0 = Instant::now();
@@ -288,7 +284,7 @@ impl BvhDetector {
         let visitor = Intersect { mesh, positions };
         let (mut pairs, counters, front) = match reuse {
             Some(r) => {
-                let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r, cones);
+                let cull = ContourCull::with_reuse(&self.bvh, mesh, positions, r);
                 traverse_from(&self.bvh, mesh, 0.0, &cull, &visitor, start)
             }
             None => self_traverse_from(&self.bvh, mesh, positions, opts, &visitor, start),
@@ -358,7 +354,6 @@ impl BvhDetector {
         } else {
             ConeFit::All
         };
-        self.cones = cones;
         let cap = KEPT_CAP * self.mesh.mean_edge_length();
         let mut kept = keeps.then(|| {
             self.kept
@@ -377,7 +372,7 @@ impl BvhDetector {
         }
         let refit_time = t0.elapsed().as_secs_f64();
         let clearances = start.clearances();
-        let det = self.traverse_with(positions, reuse.as_ref(), cones, start);
+        let det = self.traverse_with(positions, reuse.as_ref(), start);
         let fresh = reuse.map(Reuse::into_fresh);
         if let Some(mut k) = kept {
             k.keep(fresh.unwrap_or_default());
