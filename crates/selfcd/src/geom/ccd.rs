@@ -14,6 +14,7 @@
 
 use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use super::predicates::{exponent, mul_pow2};
+use super::tri_tri::stencil_touches;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -130,8 +131,9 @@ fn never_coplanar(x0: &[DVec3; 4], x1: &[DVec3; 4]) -> bool {
 /// comes within distance `thickness` (>= 0). Returns `None` when it stays farther
 /// than `thickness` (plus `RESOLUTION` of the initial gap) for the whole step, or
 /// (thickness 0) when its four points are never coplanar, so it never touches;
-/// `Some(0.0)` when it starts within `thickness`, and otherwise a time no later than
-/// the true time of impact.
+/// `Some(0.0)` when it starts within `thickness` (at thickness 0: when its
+/// elements share a point, decided exactly, [`stencil_touches`]), and otherwise a
+/// time no later than the true time of impact.
 pub fn time_of_impact(
     pair: StencilKind,
     x0: [DVec3; 4],
@@ -149,7 +151,10 @@ pub fn time_of_impact(
     };
     let mut x = x0;
     let g0 = gap(&x);
-    if !(g0 > 0.0) {
+    // Touching at the start: a computed gap of 0 or less, or, at thickness
+    // 0, elements that share a point exactly though their computed distance
+    // rounded above 0 (without motion nothing else would report them).
+    if !(g0 > 0.0) || (thickness == 0.0 && stencil_touches(pair, x0)) {
         return Some(0.0);
     }
     let lp = speed_bound(pair, &p);
@@ -320,6 +325,50 @@ mod tests {
 
     fn v(x: f64, y: f64, z: f64) -> DVec3 {
         DVec3::new(x, y, z)
+    }
+
+    /// Elements that touch at the start are found at time 0 at thickness 0
+    /// whatever their order and motion (none, apart), though their computed
+    /// distance rounds above 0: two coplanar edges of the dress mesh (the
+    /// plane x = 0) crossing, which `continuous_impacts` missed at rest when
+    /// the edges came in the other order (1.2e-32 squared); a vertex on a
+    /// triangle and on a zero-area one; and edges that miss by a hair are not.
+    #[test]
+    fn elements_touching_at_the_start_are_found_at_time_0() {
+        let [a, b, c, d] = [
+            v(0.0, 0.5933, 0.036),
+            v(0.0, 0.5936, 0.0347),
+            v(0.0, 0.5934, 0.034),
+            v(0.0, 0.5938, 0.0363),
+        ];
+        let ee = StencilKind::EdgeEdge;
+        let apart = DVec3::new(1.0, 0.0, 0.0);
+        for x in [[a, b, c, d], [c, d, a, b], [b, a, d, c], [d, c, b, a]] {
+            assert_eq!(time_of_impact(ee, x, x, 0.0), Some(0.0), "{x:?}");
+            let away = [x[0], x[1], x[2] + apart, x[3] + apart];
+            assert_eq!(time_of_impact(ee, x, away, 0.0), Some(0.0), "{x:?}");
+        }
+        // A hair off the plane: skew, no contact.
+        let d_off = v(1e-12, d.y, d.z);
+        let x = [a, b, c, d_off];
+        assert!(crate::geom::predicates::orient3d(a, b, c, d_off) != 0);
+        assert_eq!(time_of_impact(ee, x, x, 0.0), None);
+        // A vertex at a dyadic point of a triangle, and on a zero-area one.
+        let vt = StencilKind::VertexTriangle;
+        let (p, q, r) = (
+            v(0.125, 0.25, 0.375),
+            v(1.375, 0.75, 0.125),
+            v(0.5, 1.875, 0.625),
+        );
+        let on = p + (q - p) * 0.25 + (r - p) * 0.5;
+        assert_eq!(crate::geom::predicates::orient3d(p, q, r, on), 0);
+        let x = [on, p, q, r];
+        assert_eq!(time_of_impact(vt, x, x, 0.0), Some(0.0));
+        let mid = v(0.5, 0.5, 0.5);
+        let x = [mid, v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), v(2.0, 2.0, 2.0)];
+        assert_eq!(time_of_impact(vt, x, x, 0.0), Some(0.0));
+        let x = [mid + apart, x[1], x[2], x[3]];
+        assert_eq!(time_of_impact(vt, x, x, 0.0), None);
     }
 
     /// A vertex 0.25 above a unit triangle, at scales 2^k: the same contact,
