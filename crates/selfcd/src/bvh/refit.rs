@@ -195,13 +195,12 @@ impl Bvh {
     /// Fits every node's slab along its cone's axis ([`Slab`]) to
     /// `positions`, the positions of the last refit. The slabs hold until
     /// the next refit; none are fitted (and none bound anything) where
-    /// coordinates exceed 1e300.
+    /// coordinates exceed 1e300. A slab bounds its node along any unit
+    /// axis, so after a refit of the leaves' cones only
+    /// ([`ConeFit::Leaves`]) the internal nodes' axes are those of the last
+    /// refit that fitted them: as sound, and near this frame's while the
+    /// normals turn slowly.
     pub fn fit_slabs(&mut self, mesh: &Mesh, positions: &[DVec3]) {
-        assert_eq!(
-            self.cones_fit,
-            ConeFit::All,
-            "slabs lie along every node's cone axis"
-        );
         let Some(err) = self.slab_error() else {
             self.slabs.clear();
             return;

@@ -346,10 +346,10 @@ impl BvhDetector {
         let keeps = self.method == Method::BvhConesContour && sequence;
         // From a kept front the contour cull asks few internal cones (its
         // kept certificates check their normals from the leaves): the refit
-        // fits the leaves' cones only (`ConeFit`), unless slabs, fitted
-        // along every node's axis, need them all.
+        // fits the leaves' cones only (`ConeFit`; slabs then lie along the
+        // internal nodes' axes as last fitted).
         let from_front = matches!(start, Start::Front(..));
-        let cones = if keeps && from_front && !self.slabs.fit() && !self.bvh.spans.is_empty() {
+        let cones = if keeps && from_front && !self.bvh.spans.is_empty() {
             ConeFit::Leaves
         } else {
             ConeFit::All
