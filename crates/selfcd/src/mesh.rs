@@ -167,10 +167,12 @@ impl Topology {
             }
             c
         };
-        let (edge_tris, vertex_tris) = (renumber(&self.edge_tris), renumber(&self.vertex_tris));
-        let tri_edges: Vec<[u32; 3]> = order.iter().map(|&t| self.tri_edges[t as usize]).collect();
+        let ((edge_tris, vertex_tris), tri_edges) = rayon::join(
+            || rayon::join(|| renumber(&self.edge_tris), || renumber(&self.vertex_tris)),
+            || -> Vec<[u32; 3]> { order.iter().map(|&t| self.tri_edges[t as usize]).collect() },
+        );
         let first = |c: &Csr, r: u32| c.items[c.offsets[r as usize] as usize];
-        let owned = (tris.iter().zip(&tri_edges).enumerate())
+        let owned = (tris.par_iter().zip(&tri_edges).enumerate())
             .map(|(i, (v, e))| {
                 let i = i as u32;
                 (0..3).fold(0u8, |bits, k| {
@@ -408,9 +410,9 @@ impl Mesh {
     pub fn reordered(&self, order: &[u32]) -> Mesh {
         assert_eq!(order.len(), self.tris.len(), "one entry per triangle");
         let tris: Vec<[u32; 3]> = order.iter().map(|&t| self.tris[t as usize]).collect();
-        let topo = self.topo.reordered(order, &tris);
+        let (topo, rest) = rayon::join(|| self.topo.reordered(order, &tris), || self.rest.clone());
         Mesh {
-            rest: self.rest.clone(),
+            rest,
             tris,
             topo,
             mean_edge: self.mean_edge.clone(),

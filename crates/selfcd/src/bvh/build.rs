@@ -530,6 +530,7 @@ impl PatchBuilder {
         Patches {
             contour: self.contour,
             boundary: self.boundary,
+            rows: Vec::new(),
             euler: self.euler,
             component,
         }

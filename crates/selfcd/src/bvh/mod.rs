@@ -148,6 +148,7 @@ impl Bvh {
             + csr(&self.patches.boundary)
             + self.patches.euler.capacity() * 4
             + self.patches.component.capacity()
+            + self.patches.rows.capacity() * 4
             + self.spans.capacity() * size_of::<[u32; 2]>()
     }
 }

@@ -16,46 +16,51 @@
 //! and edge ids, so the patches' contours (packed edge ids) and boundaries
 //! (vertex ids) hold as they are.
 
-use super::patch::Patches;
 use super::Bvh;
-use crate::mesh::Csr;
+use crate::mesh::Mesh;
 
 impl Bvh {
-    /// This hierarchy renumbered depth-first (module doc), and the order of
-    /// its leaves: leaf `i` of the result is leaf `order[i]` of this one, so
-    /// it holds triangle `order[i]` of this hierarchy's mesh, triangle `i` of
-    /// `mesh.reordered(&order)`. Within each build level the parents are
+    /// This hierarchy, built for `mesh`, renumbered depth-first (module
+    /// doc), with `mesh` renumbered alike and the order of the leaves: leaf
+    /// `i` of the result is leaf `order[i]` of this one, so it holds
+    /// triangle `order[i]` of `mesh`, triangle `i` of the returned mesh
+    /// (`mesh.reordered(&order)`). Within each build level the parents are
     /// sorted by their first leaf, so children still have smaller ids than
-    /// their parents and a level is still one range.
-    pub fn depth_first(&self) -> (Bvh, Vec<u32>) {
+    /// their parents and a level is still one range. Fresh memory and
+    /// scattered moves are the expensive part here: the boxes and cones are
+    /// refitted to the rest shape in place rather than moved, the patches'
+    /// rows stay where the build wrote them (`Patches::rows` maps the new
+    /// ids to them), and only the small per-node arrays are rewritten.
+    pub fn depth_first(mut self, mesh: &Mesh) -> (Bvh, Mesh, Vec<u32>) {
         let n = self.n_leaves;
         let nodes = self.n_nodes();
-        // Leaves in depth-first order (left child first), and each internal
-        // node's first leaf in that order, its sort key within its level.
+        // Each internal node's level, and the next free id in each level.
+        let mut level_of = vec![0u32; nodes - n];
+        let mut next: Vec<u32> = self.levels.iter().map(|l| l.start).collect();
+        for (k, l) in self.levels.iter().enumerate() {
+            level_of[l.start as usize - n..l.end as usize - n].fill(k as u32);
+        }
+        // Depth-first (left child first): leaves in order, and each internal
+        // node the next id of its level, which sorts a level's nodes by
+        // their first leaf (disjoint subtrees are visited one after the other).
         let mut order = Vec::with_capacity(n);
-        let mut first_leaf = vec![0u32; nodes - n];
+        let mut new_id = vec![0u32; nodes];
         let mut stack = vec![self.root()];
         while let Some(v) = stack.pop() {
             if self.is_leaf(v) {
+                new_id[v as usize] = order.len() as u32;
                 order.push(v);
                 continue;
             }
-            first_leaf[v as usize - n] = order.len() as u32;
+            let slot = &mut next[level_of[v as usize - n] as usize];
+            new_id[v as usize] = *slot;
+            *slot += 1;
             let [l, r] = self.children_of(v);
             stack.extend([r, l]);
         }
-        let mut new_id = vec![0u32; nodes];
-        for (i, &t) in order.iter().enumerate() {
-            new_id[t as usize] = i as u32;
-        }
-        let mut old_of: Vec<u32> = order.clone();
-        old_of.extend(n as u32..nodes as u32);
-        for level in &self.levels {
-            let ids = &mut old_of[level.start as usize..level.end as usize];
-            ids.sort_unstable_by_key(|&v| first_leaf[v as usize - n]);
-            for (k, &v) in ids.iter().enumerate() {
-                new_id[v as usize] = level.start + k as u32;
-            }
+        let mut old_of = vec![0u32; nodes];
+        for (v, &i) in new_id.iter().enumerate() {
+            old_of[i as usize] = v as u32;
         }
         let children: Vec<[u32; 2]> = old_of[n..]
             .iter()
@@ -68,47 +73,21 @@ impl Bvh {
             debug_assert_eq!(mid, start, "depth-first leaves");
             spans.push([lo, hi]);
         }
-        let p = &self.patches;
-        let bvh = Bvh {
-            n_leaves: n,
-            children,
-            levels: self.levels.clone(),
-            boxes: pick(&self.boxes, &old_of),
-            cones: pick(&self.cones, &old_of),
-            cones_fit: self.cones_fit,
-            slabs: if self.has_slabs() {
-                pick(&self.slabs, &old_of)
-            } else {
-                Vec::new()
-            },
-            patches: Patches {
-                contour: rows_in_order(&p.contour, &old_of),
-                boundary: rows_in_order(&p.boundary, &old_of),
-                euler: pick(&p.euler, &old_of),
-                component: pick(&p.component, &old_of),
-            },
-            spans,
-        };
-        (bvh, order)
+        let p = &mut self.patches;
+        p.euler = pick(&p.euler, &old_of);
+        p.component = pick(&p.component, &old_of);
+        p.rows = old_of.iter().map(|&v| p.row(v as usize) as u32).collect();
+        self.children = children;
+        self.spans = spans;
+        let mesh = mesh.reordered(&order);
+        self.refit(&mesh, mesh.rest());
+        (self, mesh, order)
     }
 }
 
 /// `v` in the order `ids` (entry `i` of the result is `v[ids[i]]`).
 fn pick<T: Copy>(v: &[T], ids: &[u32]) -> Vec<T> {
     ids.iter().map(|&i| v[i as usize]).collect()
-}
-
-/// The rows of `c` in the order `rows` (row `i` of the result is row
-/// `rows[i]` of `c`), contents unchanged.
-fn rows_in_order(c: &Csr, rows: &[u32]) -> Csr {
-    let mut offsets = Vec::with_capacity(rows.len() + 1);
-    let mut items = Vec::with_capacity(c.items.len());
-    offsets.push(0);
-    for &r in rows {
-        items.extend_from_slice(c.row(r as usize));
-        offsets.push(items.len() as u32);
-    }
-    Csr { offsets, items }
 }
 
 #[cfg(test)]
@@ -138,8 +117,7 @@ mod tests {
         }
         .apply(mesh.rest());
         let mut bvh = build(&mesh);
-        let (mut df, order) = bvh.depth_first();
-        let inner = mesh.reordered(&order);
+        let (mut df, inner, order) = bvh.clone().depth_first(&mesh);
         // Leaves of each subtree: one range.
         let mut span = vec![(u32::MAX, 0u32, 0u32); df.n_nodes()];
         for l in 0..df.n_leaves as u32 {

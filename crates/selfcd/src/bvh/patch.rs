@@ -15,10 +15,15 @@ use glam::DVec3;
 /// Per-node patch topology, fixed at build time.
 #[derive(Debug, Clone, Default)]
 pub struct Patches {
-    /// Sorted packed directed contour edges of each node.
+    /// Sorted packed directed contour edges of each node (its row: [`row`](Self::row)).
     pub contour: Csr,
     /// Sorted boundary vertices of each node (the vertices of its contour).
     pub boundary: Csr,
+    /// The row of `contour` and `boundary` of each node where the nodes
+    /// were renumbered after the build ([`super::Bvh::depth_first`]: the
+    /// rows stay where the build wrote them); empty when a node's row is
+    /// its id.
+    pub rows: Vec<u32>,
     /// Euler characteristic V - E + F of each node's patch, or [`INELIGIBLE`]
     /// when the patch holds a non-manifold element or inconsistent winding
     /// (the contour test never passes for it).
@@ -154,16 +159,22 @@ pub fn have_common(a: &[u32], b: &[u32]) -> bool {
 }
 
 impl Patches {
+    /// The row of `contour` and `boundary` that holds `node`'s lists.
+    #[inline]
+    pub fn row(&self, node: usize) -> usize {
+        self.rows.get(node).map_or(node, |&r| r as usize)
+    }
+
     /// Contour of `node`.
     #[inline]
     pub fn contour_of(&self, node: u32) -> &[u32] {
-        self.contour.row(node as usize)
+        self.contour.row(self.row(node as usize))
     }
 
     /// Boundary vertices of `node`.
     #[inline]
     pub fn boundary_of(&self, node: u32) -> &[u32] {
-        self.boundary.row(node as usize)
+        self.boundary.row(self.row(node as usize))
     }
 
     /// Euler characteristic of an eligible node (manifold, consistent winding),

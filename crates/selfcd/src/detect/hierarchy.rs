@@ -171,8 +171,8 @@ impl BvhDetector {
     /// Builds the hierarchy of `mesh` for `method` (not `brute`), renumbered
     /// depth-first (the type's doc).
     pub fn new(mesh: Arc<Mesh>, method: Method, thickness: f64) -> Self {
-        let (bvh, order) = build(&mesh).depth_first();
-        let inner = Arc::new(mesh.reordered(&order));
+        let (bvh, inner, order) = build(&mesh).depth_first(&mesh);
+        let inner = Arc::new(inner);
         Self::with_hierarchy(mesh, inner, Some(order), bvh, method, thickness)
     }
 
