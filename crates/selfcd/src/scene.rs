@@ -128,6 +128,14 @@ impl SplitMix {
         z ^ (z >> 31)
     }
 
+    /// Shuffles `v` (Fisher-Yates; the modulo's bias is far below what a
+    /// test mesh notices).
+    pub fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            v.swap(i, (self.next_u64() % (i as u64 + 1)) as usize);
+        }
+    }
+
     /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64

@@ -174,10 +174,7 @@ fn meshes() -> Vec<(String, Arc<Mesh>)> {
     // Triangles in no spatial order (the hierarchies renumber them; every
     // answer must come back in these ids).
     let (v, mut f) = irregular(17, 9);
-    let mut rng = SplitMix::new(9);
-    for i in (1..f.len()).rev() {
-        f.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
-    }
+    SplitMix::new(9).shuffle(&mut f);
     out.push(("shuffled9".into(), Arc::new(Mesh::new(v, f).unwrap())));
     out
 }

@@ -105,10 +105,7 @@ mod tests {
     #[test]
     fn depth_first_keeps_the_tree_and_its_answers() {
         let (v, mut f) = grid(24, 1.0);
-        let mut rng = SplitMix::new(5);
-        for i in (1..f.len()).rev() {
-            f.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
-        }
+        SplitMix::new(5).shuffle(&mut f);
         let mesh = Mesh::new(v, f).unwrap();
         let x = Deformation::Crumple {
             amplitude: 0.3,
