@@ -83,10 +83,7 @@ impl Cull for BoxesOnly {
 /// 90 degrees. Not conservative (a positive cone allows a patch that winds
 /// over itself); `bvh-cones`.
 pub struct ConeCull<'a> {
-    /// Cone of every node.
-    pub cones: &'a [NormalCone],
-    /// Patch topology (adjacency of pairs).
-    pub patches: &'a Patches,
+    cones: Cones<'a>,
 }
 
 impl<'a> ConeCull<'a> {
@@ -98,26 +95,19 @@ impl<'a> ConeCull<'a> {
             "the cone cull reads every cone"
         );
         ConeCull {
-            cones: &bvh.cones,
-            patches: &bvh.patches,
+            cones: Cones {
+                bvh,
+                from_leaves: false,
+            },
         }
     }
 
-    /// Are nodes `a` and `b` adjacent with a positive merged cone? Cheapest
-    /// first: most overlapping pairs in layered cloth lie in different mesh
-    /// components (one byte per node says so), the merged cone can only be
-    /// positive if both are, and only adjacent patches are worth merging.
+    /// Are nodes `a` and `b` adjacent with a positive merged cone? Most
+    /// overlapping pairs in layered cloth lie in different mesh components
+    /// (one byte per node says so): that first.
     #[inline]
     fn adjacent_positive(&self, a: u32, b: u32) -> bool {
-        let p = self.patches;
-        if !p.may_touch(a, b) {
-            return false;
-        }
-        let (ca, cb) = (&self.cones[a as usize], &self.cones[b as usize]);
-        ca.is_positive()
-            && cb.is_positive()
-            && have_common(p.boundary_of(a), p.boundary_of(b))
-            && ca.merge_is_positive(cb)
+        self.cones.bvh.patches.may_touch(a, b) && self.cones.adjacent_positive(a, b).is_some()
     }
 }
 
@@ -153,9 +143,10 @@ impl Cones<'_> {
     }
 
     /// The cones of adjacent nodes `a` and `b` (sharing a boundary vertex)
-    /// when both and their merge are positive: `ConeCull::adjacent_positive`
-    /// after the component test, cones from the leaves computed only for
-    /// adjacent nodes.
+    /// when both and their merge are positive. Cheapest first: fitted
+    /// cones can only merge positive if both are, and only adjacent patches
+    /// are worth merging; cones from the leaves are computed for adjacent
+    /// nodes only.
     #[inline]
     fn adjacent_positive(&self, a: u32, b: u32) -> Option<(NormalCone, NormalCone)> {
         let p = &self.bvh.patches;
@@ -176,7 +167,7 @@ impl Cull for ConeCull<'_> {
     type Scratch = ();
     #[inline]
     fn self_culled(&self, n: u32, _: &mut (), c: &mut Counters) -> bool {
-        let culled = self.cones[n as usize].is_positive();
+        let culled = self.cones.of(n).is_positive();
         c.self_culls += culled as u64;
         culled
     }
