@@ -79,7 +79,7 @@ fn real_mesh(path: &str) -> selfcd::Result<()> {
         (0..reps)
             .map(|_| {
                 let t0 = Instant::now();
-                let b = build(&mesh);
+                let b = build(&mesh).depth_first(&mesh);
                 let t = t0.elapsed().as_secs_f64();
                 drop(b);
                 t * 1e3
@@ -96,7 +96,7 @@ fn real_mesh(path: &str) -> selfcd::Result<()> {
             })
             .collect(),
     );
-    let bytes = build(&mesh).memory_bytes() as f64 / mesh.n_triangles() as f64;
+    let bytes = build(&mesh).depth_first(&mesh).0.memory_bytes() as f64 / mesh.n_triangles() as f64;
     println!(
         "{path}: {} triangles, build {build_ms:.2} ms, one-shot {oneshot_ms:.2} ms, {bytes:.0} B/tri",
         mesh.n_triangles()
