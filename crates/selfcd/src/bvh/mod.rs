@@ -47,10 +47,10 @@ pub struct Bvh {
     pub slabs: Vec<Slab>,
     /// Contour and patch topology of every node, fixed at build time.
     pub patches: patch::Patches,
-    /// The leaves under every node as one id range `[start, end)`, when the
-    /// leaves are numbered depth-first ([`Bvh::depth_first`]); empty
-    /// otherwise. A node's cone can then be computed from its leaves'
-    /// ([`cone_from_leaves`](Self::cone_from_leaves)).
+    /// The leaves under internal node `n_leaves + i` as one id range
+    /// `[start, end)` (entry `i`), when the leaves are numbered depth-first
+    /// ([`Bvh::depth_first`]); empty otherwise. A node's cone can then be
+    /// computed from its leaves' ([`cone_from_leaves`](Self::cone_from_leaves)).
     pub spans: Vec<[u32; 2]>,
 }
 
@@ -93,12 +93,21 @@ impl Bvh {
     /// cones only ([`refit::ConeFit::Leaves`]): O(leaves under `n`). The
     /// fitted cone where the leaves are not numbered depth-first.
     pub fn cone_from_leaves(&self, n: u32) -> NormalCone {
-        match self.spans.get(n as usize) {
-            Some(&[lo, hi]) if !self.is_leaf(n) => {
-                NormalCone::around_leaves(&self.cones[lo as usize..hi as usize])
-            }
+        match self.leaves_of(n) {
+            Some(leaves) if !self.is_leaf(n) => NormalCone::around_leaves(&self.cones[leaves]),
             _ => self.cones[n as usize],
         }
+    }
+
+    /// The leaves under node `n` as one id range: a leaf itself, an
+    /// internal node's when the leaves are numbered depth-first ([`spans`](Self::spans)).
+    #[inline]
+    fn leaves_of(&self, n: u32) -> Option<std::ops::Range<usize>> {
+        if self.is_leaf(n) {
+            return Some(n as usize..n as usize + 1);
+        }
+        let &[lo, hi] = self.spans.get(n as usize - self.n_leaves)?;
+        Some(lo as usize..hi as usize)
     }
 
     /// True when every normal under node `n` lies strictly within 90
@@ -106,10 +115,8 @@ impl Bvh {
     /// ([`NormalCone::leaves_within_90_of`]; O(leaves under `n`)), or from
     /// its fitted cone where the leaves are not numbered depth-first.
     pub fn leaves_within_90_of(&self, n: u32, v: glam::DVec3) -> bool {
-        match self.spans.get(n as usize) {
-            Some(&[lo, hi]) => {
-                NormalCone::leaves_within_90_of(&self.cones[lo as usize..hi as usize], v)
-            }
+        match self.leaves_of(n) {
+            Some(leaves) => NormalCone::leaves_within_90_of(&self.cones[leaves], v),
             None => self.cones[n as usize].within_90_of(v),
         }
     }

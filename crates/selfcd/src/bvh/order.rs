@@ -66,10 +66,14 @@ impl Bvh {
             .iter()
             .map(|&v| self.children_of(v).map(|c| new_id[c as usize]))
             .collect();
-        // Each node's leaves: its left child's range, then its right's.
-        let mut spans: Vec<[u32; 2]> = (0..n as u32).map(|i| [i, i + 1]).collect();
+        // Each internal node's leaves: its left child's range, then its right's.
+        let mut spans: Vec<[u32; 2]> = Vec::with_capacity(children.len());
         for &[l, r] in &children {
-            let ([lo, mid], [start, hi]) = (spans[l as usize], spans[r as usize]);
+            let span = |c: u32| match c.checked_sub(n as u32) {
+                Some(i) => spans[i as usize],
+                None => [c, c + 1],
+            };
+            let ([lo, mid], [start, hi]) = (span(l), span(r));
             debug_assert_eq!(mid, start, "depth-first leaves");
             spans.push([lo, hi]);
         }
@@ -130,7 +134,7 @@ mod tests {
                 "left subtree's leaves just before the right's"
             );
             span[p as usize] = (x.0, y.1, x.2 + y.2);
-            assert_eq!(df.spans[p as usize], [x.0, y.1 + 1]);
+            assert_eq!(df.spans[p as usize - df.n_leaves], [x.0, y.1 + 1]);
         }
         assert_eq!(
             span[df.root() as usize],

@@ -103,7 +103,7 @@ impl Bvh {
         let n = self.n_leaves;
         assert_eq!(values.len(), self.n_nodes(), "one value per node");
         assert!(
-            fit == ConeFit::All || self.spans.len() == self.n_nodes(),
+            fit == ConeFit::All || self.spans.len() == self.n_nodes() - n,
             "cones from the leaves need depth-first leaves"
         );
         self.cones_fit = fit;
