@@ -319,6 +319,40 @@ fn check_zero_area_mesh(mesh: &Arc<Mesh>) {
             );
         }
     }
+    // A slow wobble of the folded frame: from the third frame the kept
+    // detector fits the leaves' cones only, zero-area ones (full cones)
+    // among them.
+    {
+        use selfcd::bvh::refit::ConeFit;
+        use selfcd::detect::hierarchy::BvhDetector;
+        use selfcd::Detector;
+        let edge = mesh.mean_edge_length();
+        let mut det = BvhDetector::new(mesh.clone(), Method::BvhConesContour, 0.0);
+        let mut from_leaves = 0;
+        for k in 0..12 {
+            let phase = 0.7 * k as f64;
+            let p: Vec<DVec3> = frames[1]
+                .iter()
+                .map(|q| {
+                    q + 0.02
+                        * edge
+                        * DVec3::new(
+                            (9.0 * q.y + phase).sin(),
+                            (9.0 * q.x).cos(),
+                            (5.0 * q.x + phase).sin(),
+                        )
+                })
+                .collect();
+            let want = run(mesh, Method::Brute, std::slice::from_ref(&p), 0.0);
+            assert_eq!(
+                det.detect(&p).unwrap().pairs,
+                want[0].pairs,
+                "wobble frame {k}"
+            );
+            from_leaves += (det.cones_fitted() == ConeFit::Leaves) as u32;
+        }
+        assert!(from_leaves > 0, "no frame fitted the leaves' cones only");
+    }
     let d = 0.3 * mesh.mean_edge_length();
     let near = run(mesh, Method::Brute, &frames, d);
     for m in [Method::Bvh, Method::BvhConesContour, Method::SensorGated] {
