@@ -14,7 +14,7 @@
 
 use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use super::predicates::{exponent, mul_pow2};
-use super::tri_tri::stencil_touches;
+use super::tri_tri::triangles_intersect;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -127,12 +127,23 @@ fn never_coplanar(x0: &[DVec3; 4], x1: &[DVec3; 4]) -> bool {
     err.is_finite() && (b.iter().all(|&x| x > err) || b.iter().all(|&x| x < -err))
 }
 
+/// Do the two elements of stencil `x` share a point, exactly: point `x[0]`
+/// and the closed triangle `x[1], x[2], x[3]`, or the closed segments
+/// `x[0] x[1]` and `x[2] x[3]`; each element as the collapsed triangle it
+/// is ([`triangles_intersect`] takes those as their edges and points).
+fn stencil_touches(pair: StencilKind, x: [DVec3; 4]) -> bool {
+    match pair {
+        StencilKind::VertexTriangle => triangles_intersect(&[x[0]; 3], &[x[1], x[2], x[3]]),
+        StencilKind::EdgeEdge => triangles_intersect(&[x[0], x[1], x[1]], &[x[2], x[3], x[3]]),
+    }
+}
+
 /// First time t in [0, 1] at which the pair, moving linearly from `x0` to `x1`,
 /// comes within distance `thickness` (>= 0). Returns `None` when it stays farther
 /// than `thickness` (plus `RESOLUTION` of the initial gap) for the whole step, or
 /// (thickness 0) when its four points are never coplanar, so it never touches;
 /// `Some(0.0)` when it starts within `thickness` (at thickness 0: when its
-/// elements share a point, decided exactly, [`stencil_touches`]), and otherwise a
+/// elements share a point, decided exactly, `stencil_touches`), and otherwise a
 /// time no later than the true time of impact.
 pub fn time_of_impact(
     pair: StencilKind,

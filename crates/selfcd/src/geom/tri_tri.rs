@@ -16,7 +16,6 @@
 //! ordinary pair ([`Expansion`]), big integers for pairs whose coordinates
 //! span 2^500 or more ([`BigInts`]).
 
-use super::ccd::StencilKind;
 use super::exact_int::BigInts;
 use super::predicates::{certainly_one_side, Expansion, Orientation};
 use glam::DVec3;
@@ -101,38 +100,6 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     match Expansion::new(p) {
         Some(k) => intersect(&k),
         None => intersect(&BigInts::new(&p)),
-    }
-}
-
-/// Do the two elements of stencil `x` share a point, exactly: point `x[0]`
-/// and the closed triangle `x[1], x[2], x[3]` (a zero-area one is the
-/// segment or point it is), or the closed segments `x[0] x[1]` and
-/// `x[2] x[3]`. For any finite coordinates, as [`triangles_intersect`].
-/// (The continuous query's test of a start already touching:
-/// [`super::ccd::time_of_impact`].)
-pub fn stencil_touches(kind: StencilKind, x: [DVec3; 4]) -> bool {
-    match Expansion::new(x) {
-        Some(k) => touches(&k, kind),
-        None => touches(&BigInts::new(&x), kind),
-    }
-}
-
-/// [`stencil_touches`] over the four points of `k`; a point off the other
-/// element's plane (the usual case) is decided by one orientation.
-fn touches<K: Orientation>(k: &K, kind: StencilKind) -> bool {
-    match kind {
-        StencilKind::EdgeEdge => segments_intersect_3d(k, 0, 1, 2, 3),
-        StencilKind::VertexTriangle => {
-            if k.orient3d([1, 2, 3, 0]) != 0 {
-                return false;
-            }
-            match k.normal_axis([1, 2, 3]) {
-                Some(axis) => point_in_triangle_2d(k, axis, 0, [1, 2, 3]),
-                None => [(1, 2), (2, 3), (3, 1)]
-                    .iter()
-                    .any(|&(a, b)| segments_intersect_3d(k, 0, 0, a, b)),
-            }
-        }
     }
 }
 
