@@ -149,38 +149,19 @@ impl Topology {
     }
 
     /// This topology with the triangles renumbered: triangle `i` of the
-    /// result is triangle `order[i]` here (`order` a permutation, `tris` the
-    /// renumbered triangles). Edge and vertex ids are kept; each row of
-    /// `edge_tris` and `vertex_tris` is renumbered and sorted again, and the
-    /// owners (`owned`) are the rows' new first triangles.
+    /// result is triangle `order[i]` here (`tris` the renumbered triangles).
+    /// Edge and vertex ids are kept; the triangles of each edge and vertex,
+    /// and their owners, come from the renumbered triples as in
+    /// [`new`](Self::new).
     fn reordered(&self, order: &[u32], tris: &[[u32; 3]]) -> Topology {
-        let mut new_id = vec![0u32; order.len()];
-        for (i, &t) in order.iter().enumerate() {
-            new_id[t as usize] = i as u32;
-        }
-        let renumber = |c: &Csr| {
-            let mut c = c.clone();
-            for r in 0..c.rows() {
-                let row = &mut c.items[c.offsets[r] as usize..c.offsets[r + 1] as usize];
-                row.iter_mut().for_each(|t| *t = new_id[*t as usize]);
-                row.sort_unstable();
-            }
-            c
-        };
-        let ((edge_tris, vertex_tris), tri_edges) = rayon::join(
-            || rayon::join(|| renumber(&self.edge_tris), || renumber(&self.vertex_tris)),
-            || -> Vec<[u32; 3]> { order.iter().map(|&t| self.tri_edges[t as usize]).collect() },
+        let tri_edges: Vec<[u32; 3]> = order.iter().map(|&t| self.tri_edges[t as usize]).collect();
+        let ((edge_tris, edge_owned), (vertex_tris, mut owned)) = rayon::join(
+            || Csr::from_triples_first(self.edges.len(), &tri_edges),
+            || Csr::from_triples_first(self.vertex_tris.rows(), tris),
         );
-        let first = |c: &Csr, r: u32| c.items[c.offsets[r as usize] as usize];
-        let owned = (tris.par_iter().zip(&tri_edges).enumerate())
-            .map(|(i, (v, e))| {
-                let i = i as u32;
-                (0..3).fold(0u8, |bits, k| {
-                    bits | ((first(&vertex_tris, v[k]) == i) as u8) << k
-                        | ((first(&edge_tris, e[k]) == i) as u8) << (3 + k)
-                })
-            })
-            .collect();
+        for (o, e) in owned.iter_mut().zip(edge_owned) {
+            *o |= e << 3;
+        }
         Topology {
             edges: self.edges.clone(),
             tri_edges,
@@ -716,6 +697,31 @@ fn check_finite(p: &[DVec3]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mesh with its triangles renumbered has the topology of a mesh
+    /// built from them afresh, with the same vertex and edge ids: each
+    /// triangle's edges are the same vertex pairs, every edge and vertex has
+    /// the same triangles and the same owner.
+    #[test]
+    fn reordered_topology_is_the_fresh_one_in_the_old_edge_ids() {
+        let (v, f) = crate::scene::grid(13, 1.0);
+        let mesh = Mesh::new(v.clone(), f).unwrap();
+        let mut order: Vec<u32> = (0..mesh.n_triangles() as u32).collect();
+        crate::scene::SplitMix::new(3).shuffle(&mut order);
+        let got = mesh.reordered(&order);
+        let fresh = Mesh::new(v, got.triangles().to_vec()).unwrap();
+        let (g, f) = (got.topology(), fresh.topology());
+        assert_eq!(g.edges, mesh.topology().edges);
+        assert_eq!(g.vertex_tris.offsets, f.vertex_tris.offsets);
+        assert_eq!(g.vertex_tris.items, f.vertex_tris.items);
+        assert_eq!(g.owned, f.owned);
+        for (ge, fe) in g.tri_edges.iter().zip(&f.tri_edges) {
+            for (&a, &b) in ge.iter().zip(fe) {
+                assert_eq!(g.edges[a as usize], f.edges[b as usize]);
+                assert_eq!(g.edge_tris.row(a as usize), f.edge_tris.row(b as usize));
+            }
+        }
+    }
 
     /// `from_triples` is `from_pairs` over every (row, triple index) pair.
     #[test]
