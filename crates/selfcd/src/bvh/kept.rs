@@ -303,7 +303,7 @@ impl KeptCertificates {
         positions: &[DVec3],
         cones: ConeFit,
     ) -> Option<Reuse<'a>> {
-        let cones = if self.reset_last { ConeFit::All } else { cones }; // (see above)
+        let cones = if self.reset_last { ConeFit::All } else { cones };
                                                                         // The whole mesh's displacement box, where it can decide: after a
                                                                         // reset (has the mesh settled?) or with certificates to hold.
         let same = self.reference.len() == positions.len();
