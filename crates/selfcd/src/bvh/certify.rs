@@ -102,12 +102,16 @@ impl<'a> ConeCull<'a> {
         }
     }
 
-    /// Are nodes `a` and `b` adjacent with a positive merged cone? Most
-    /// overlapping pairs in layered cloth lie in different mesh components
-    /// (one byte per node says so): that first.
+    /// The cones of nodes `a` and `b` when they are adjacent with a positive
+    /// merged cone ([`Cones::adjacent_positive`]). Most overlapping pairs in
+    /// layered cloth lie in different mesh components (one byte per node
+    /// says so): that first.
     #[inline]
-    fn adjacent_positive(&self, a: u32, b: u32) -> bool {
-        self.cones.bvh.patches.may_touch(a, b) && self.cones.adjacent_positive(a, b).is_some()
+    fn adjacent_positive(&self, a: u32, b: u32) -> Option<(NormalCone, NormalCone)> {
+        if !self.cones.bvh.patches.may_touch(a, b) {
+            return None;
+        }
+        self.cones.adjacent_positive(a, b)
     }
 }
 
@@ -173,7 +177,7 @@ impl Cull for ConeCull<'_> {
     }
     #[inline]
     fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
-        let culled = self.adjacent_positive(a, b);
+        let culled = self.adjacent_positive(a, b).is_some();
         c.pair_culls += culled as u64;
         culled
     }
@@ -573,20 +577,20 @@ impl Cull for SweptContourCull<'_> {
     type Scratch = ContourScratch;
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        let cone = self.bvh.cones[n as usize];
+        let cone = self.cones.cones.of(n);
         disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
             self.disk_stays_height_field(contour, plane, s)
         })
     }
 
     fn pair_culled(&self, a: u32, b: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
-        if !self.cones.adjacent_positive(a, b) {
+        let Some((ca, cb)) = self.cones.adjacent_positive(a, b) else {
             return false;
-        }
+        };
         c.contour_tests += 1;
         let bvh = self.bvh;
         let ok = union_disk(&bvh.patches, a, b, &mut s.merged) == Some(true) && {
-            let axis = bvh.cones[a as usize].merge(&bvh.cones[b as usize]).axis;
+            let axis = ca.merge(&cb).axis;
             let center = bvh.boxes[a as usize].union(&bvh.boxes[b as usize]).center();
             let merged = std::mem::take(&mut s.merged);
             let ok = self.disk_stays_height_field(&merged, &Plane::new(axis, center), s);

@@ -304,8 +304,8 @@ impl KeptCertificates {
         cones: ConeFit,
     ) -> Option<Reuse<'a>> {
         let cones = if self.reset_last { ConeFit::All } else { cones };
-                                                                        // The whole mesh's displacement box, where it can decide: after a
-                                                                        // reset (has the mesh settled?) or with certificates to hold.
+        // The whole mesh's displacement box, where it can decide: after a
+        // reset (has the mesh settled?) or with certificates to hold.
         let same = self.reference.len() == positions.len();
         let whole = (same && (self.reset_last || !self.kept.is_empty()))
             .then(|| self.whole_spread(positions));
