@@ -349,7 +349,7 @@ fn check_zero_area_mesh(mesh: &Arc<Mesh>) {
                 want[0].pairs,
                 "wobble frame {k}"
             );
-            from_leaves += (det.cones_fitted() == ConeFit::Leaves) as u32;
+            from_leaves += (det.bvh().cones_fit == ConeFit::Leaves) as u32;
         }
         assert!(from_leaves > 0, "no frame fitted the leaves' cones only");
     }

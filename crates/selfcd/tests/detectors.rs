@@ -548,8 +548,8 @@ fn kept_detectors_give_the_brute_force_pairs_over_sequences() {
                     merged.detect(p).unwrap().pairs,
                     "{mname}/{sname} frame {k}"
                 );
-                from_leaves += (lazy.cones_fitted() == ConeFit::Leaves) as u32;
-                in_order += (merged.cones_fitted() == ConeFit::Leaves) as u32;
+                from_leaves += (lazy.bvh().cones_fit == ConeFit::Leaves) as u32;
+                in_order += (merged.bvh().cones_fit == ConeFit::Leaves) as u32;
             }
             // A plain traversal of the last refit (internal cones stale when
             // it fitted the leaves' only) computes them from the leaves.

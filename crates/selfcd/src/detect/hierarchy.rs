@@ -216,17 +216,12 @@ impl BvhDetector {
     }
 
     /// The hierarchy, as refitted by the last call. Its leaf `i` holds
-    /// triangle `i` of [`hierarchy_mesh`](Self::hierarchy_mesh).
+    /// triangle `i` of [`hierarchy_mesh`](Self::hierarchy_mesh); its
+    /// [`cones_fit`](Bvh::cones_fit) is [`ConeFit::Leaves`] after the frames
+    /// of a sequence that start from a kept front (the contour cull then
+    /// computes the few internal cones it asks for from the leaves).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
-    }
-
-    /// The cones the last refit fitted: [`ConeFit::Leaves`] in the frames
-    /// of a sequence that start from a kept front (the contour cull then
-    /// computes the few internal cones it asks for from the leaves), else
-    /// every cone.
-    pub fn cones_fitted(&self) -> ConeFit {
-        self.bvh.cones_fit
     }
 
     /// The mesh with its triangles in the hierarchy's order (the caller's
