@@ -77,20 +77,18 @@ pub fn scaling_until(
         let side = grid_side_for(size);
         let (v, f) = try_grid(side, 1.0)?;
         let mesh = Arc::new(Mesh::new(v, f)?);
+        let mut bytes = 0.0;
         let builds: Vec<f64> = (0..reps.clamp(1, 3))
             .map(|_| {
                 // What a kept detector builds: the hierarchy, renumbered depth-first.
                 let t0 = Instant::now();
-                let bvh = build(&mesh).depth_first(&mesh);
+                let (bvh, ..) = build(&mesh).depth_first(&mesh);
                 let t = t0.elapsed().as_secs_f64();
-                drop(bvh);
+                bytes = bvh.memory_bytes() as f64 / mesh.n_triangles() as f64;
                 t
             })
             .collect();
-        let (build_time, bytes) = (
-            median(builds),
-            build(&mesh).depth_first(&mesh).0.memory_bytes() as f64 / mesh.n_triangles() as f64,
-        );
+        let build_time = median(builds);
         for &state in states {
             let p = state.deformation(side).apply(mesh.rest());
             for &method in methods {
