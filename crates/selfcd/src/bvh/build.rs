@@ -14,7 +14,9 @@
 //! (see `union`); boxes and cones are fitted as the parents are made, so no
 //! refit follows. The result does not depend on the number of threads.
 
-use super::patch::{merge_contours_with, pack, unpack, Patches, INELIGIBLE, SEVERAL};
+use super::patch::{
+    leaf_boundary, leaf_contour, merge_contours_with, unpack, Patches, Row, INELIGIBLE, SEVERAL,
+};
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{Csr, Mesh};
@@ -284,7 +286,7 @@ impl Level {
 
 /// Sorts a list of at most three items by compare-exchanges.
 #[inline]
-fn sort_up_to_three(row: &mut [u32]) {
+pub(super) fn sort_up_to_three(row: &mut [u32]) {
     let n = row.len();
     for (i, j) in [(0, 1), (1, 2), (0, 1)] {
         if j < n && row[j] < row[i] {
@@ -362,8 +364,10 @@ const CHUNK: usize = 1024;
 
 /// Growing per-node patch data while building: [`Patches`] plus, for every
 /// boundary vertex, its number of contour edges (what makes a union's
-/// boundary a linear merge).
+/// boundary a linear merge). Leaves' lists are computed, not stored (see
+/// [`Patches`]); `contour`, `boundary` and `degree` hold the internal nodes'.
 struct PatchBuilder {
+    n_leaves: usize,
     contour: Csr,
     boundary: Csr,
     /// Contour edges at each boundary vertex, aligned with `boundary.items`.
@@ -412,48 +416,60 @@ fn room<T>(v: &mut Vec<T>, n: usize) {
 
 impl PatchBuilder {
     /// The leaves: each triangle's three directed edges and three corners
-    /// (two contour edges at each), Euler characteristic 1.
+    /// (two contour edges at each, [`LEAF_DEGREE`]), Euler characteristic 1.
     fn leaves(mesh: &Mesh) -> PatchBuilder {
-        let topo = mesh.topology();
         let n = mesh.n_triangles();
-        let bad = mesh.nonmanifold_triangles();
-        let (contour, boundary): (Vec<[u32; 3]>, Vec<[u32; 3]>) = mesh
-            .triangles()
-            .par_iter()
-            .zip(&topo.tri_edges)
-            .map(|(tri, e)| {
-                let mut c = [0, 1, 2].map(|k| pack(e[k], tri[k], tri[(k + 1) % 3]));
-                c.sort_unstable();
-                let mut v = *tri;
-                v.sort_unstable();
-                (c, v)
-            })
-            .unzip();
-        // Room for every node from the start: about four times the leaves'
-        // lists in all for patches that grow like disks (2.2 M entries for
-        // 0.6 M at the leaves of the 200k grid), so that the levels append
-        // without reallocating and nothing is copied into a larger buffer.
-        let threes = |rows: Vec<[u32; 3]>| {
-            let mut items = Vec::with_capacity(4 * 3 * n);
-            items.extend(rows.into_iter().flatten());
-            let mut offsets = Vec::with_capacity(2 * n);
-            offsets.extend((0..=n as u32).map(|i| 3 * i));
-            Csr { offsets, items }
+        // Room for every internal node from the start: about three times
+        // the leaves' lists in all for patches that grow like disks (1.6 M
+        // entries at the 200k grid), so that the levels append without
+        // reallocating and nothing is copied into a larger buffer.
+        let empty = || {
+            let mut offsets = Vec::with_capacity(n + 1);
+            offsets.push(0);
+            Csr {
+                offsets,
+                items: Vec::with_capacity(3 * 3 * n),
+            }
         };
-        let mut degree = Vec::with_capacity(4 * 3 * n);
-        degree.resize(3 * n, 2);
         let mut euler = Vec::with_capacity(2 * n);
         euler.resize(n, 1);
         let mut eligible = Vec::with_capacity(2 * n);
-        eligible.extend(bad.iter().map(|&x| !x));
+        eligible.extend(mesh.nonmanifold_triangles().iter().map(|&x| !x));
         PatchBuilder {
-            contour: threes(contour),
-            boundary: threes(boundary),
-            degree,
+            n_leaves: n,
+            contour: empty(),
+            boundary: empty(),
+            degree: Vec::with_capacity(3 * 3 * n),
             euler,
             eligible,
             parts: Vec::new(),
         }
+    }
+
+    /// Node `n`'s lists, computed for a leaf of `mesh`.
+    fn side<'a>(&'a self, mesh: &Mesh, n: usize) -> Side<'a> {
+        let Some(i) = n.checked_sub(self.n_leaves) else {
+            return Side {
+                contour: Row::Leaf(leaf_contour(mesh, n as u32)),
+                boundary: Row::Leaf(leaf_boundary(mesh, n as u32)),
+                degree: &LEAF_DEGREE,
+            };
+        };
+        let (lo, hi) = (self.boundary.offsets[i], self.boundary.offsets[i + 1]);
+        Side {
+            contour: Row::Stored(self.contour.row(i)),
+            boundary: Row::Stored(self.boundary.row(i)),
+            degree: &self.degree[lo as usize..hi as usize],
+        }
+    }
+
+    /// Lengths of node `n`'s contour and boundary.
+    fn lens(&self, n: usize) -> (usize, usize) {
+        let Some(i) = n.checked_sub(self.n_leaves) else {
+            return (3, 3);
+        };
+        let len = |c: &Csr| (c.offsets[i + 1] - c.offsets[i]) as usize;
+        (len(&self.contour), len(&self.boundary))
     }
 
     /// Appends the patches of the unions of `pairs` (disjoint nodes), in order.
@@ -467,12 +483,11 @@ impl PatchBuilder {
         (parts[..chunks].par_iter_mut())
             .zip(pairs.par_chunks(CHUNK))
             .for_each(|(out, chunk)| {
-                let len =
-                    |c: &Csr, n: u32| (c.offsets[n as usize + 1] - c.offsets[n as usize]) as usize;
                 let (mut nc, mut nb) = (0, 0);
                 for &(l, r) in chunk {
-                    nc += len(&this.contour, l) + len(&this.contour, r);
-                    nb += len(&this.boundary, l) + len(&this.boundary, r);
+                    let ((cl, bl), (cr, br)) = (this.lens(l as usize), this.lens(r as usize));
+                    nc += cl + cr;
+                    nb += bl + br;
                 }
                 out.clear_for(chunk.len(), nc, nb);
                 let mut shared = Vec::new();
@@ -499,13 +514,7 @@ impl PatchBuilder {
     /// Appends the patch of the union of disjoint nodes `l` and `r` to `out`;
     /// see [`union`].
     fn union(&self, mesh: &Mesh, l: usize, r: usize, out: &mut PatchOut, shared: &mut Vec<u32>) {
-        let side = |n: usize| Side {
-            contour: self.contour.row(n),
-            boundary: self.boundary.row(n),
-            degree: &self.degree
-                [self.boundary.offsets[n] as usize..self.boundary.offsets[n + 1] as usize],
-        };
-        let (a, b) = (side(l), side(r));
+        let (a, b) = (self.side(mesh, l), self.side(mesh, r));
         let u = union(mesh, &a, &b, out, shared);
         out.contour_ends.push(out.contour.len() as u32);
         out.boundary_ends.push(out.boundary.len() as u32);
@@ -528,6 +537,7 @@ impl PatchBuilder {
             }
         }
         Patches {
+            n_leaves: self.n_leaves,
             contour: self.contour,
             boundary: self.boundary,
             rows: Vec::new(),
@@ -539,10 +549,13 @@ impl PatchBuilder {
 
 /// One child's patch lists.
 struct Side<'a> {
-    contour: &'a [u32],
-    boundary: &'a [u32],
+    contour: Row<'a>,
+    boundary: Row<'a>,
     degree: &'a [u32],
 }
+
+/// A leaf's boundary degrees: two contour edges at each corner.
+const LEAF_DEGREE: [u32; 3] = [2; 3];
 
 /// What a union shares between its two sides.
 struct Shared {
@@ -561,7 +574,7 @@ struct Shared {
 /// boundaries against the sorted ends of the (few) shared edges.
 fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32>) -> Shared {
     ends.clear();
-    let info = merge_contours_with(a.contour, b.contour, &mut out.contour, |e| {
+    let info = merge_contours_with(&a.contour, &b.contour, &mut out.contour, |e| {
         ends.extend(unpack(mesh, e))
     });
     ends.sort_unstable();
@@ -609,6 +622,7 @@ fn union(mesh: &Mesh, a: &Side, b: &Side, out: &mut PatchOut, ends: &mut Vec<u32
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::patch::pack;
     use crate::scene::{grid, Deformation, SplitMix};
     use std::collections::BTreeMap;
 
@@ -679,7 +693,7 @@ mod tests {
                 }
                 verts.sort_unstable();
                 verts.dedup();
-                let contour = p.contour_of(n);
+                let contour = &*p.contour_of(&m, n);
                 let odd: Vec<u32> = edges
                     .iter()
                     .filter(|(_, d)| d.len() % 2 == 1)
@@ -693,7 +707,7 @@ mod tests {
                 let mut boundary: Vec<u32> = contour.iter().flat_map(|&e| unpack(&m, e)).collect();
                 boundary.sort_unstable();
                 boundary.dedup();
-                assert_eq!(p.boundary_of(n), &boundary[..], "node {n}");
+                assert_eq!(&*p.boundary_of(&m, n), &boundary[..], "node {n}");
                 let conflict = edges.values().any(|d| d.len() == 2 && d[0] == d[1]);
                 let eligible = !conflict && tris.iter().all(|&t| !bad[t as usize]);
                 assert_eq!(p.euler_of(n).is_some(), eligible, "node {n}");

@@ -87,8 +87,9 @@ pub struct ConeCull<'a> {
 }
 
 impl<'a> ConeCull<'a> {
-    /// The cull of `bvh`, whose every cone the last refit fitted.
-    pub fn new(bvh: &'a Bvh) -> Self {
+    /// The cull of `bvh`, built for `mesh`, whose every cone the last refit
+    /// fitted.
+    pub fn new(bvh: &'a Bvh, mesh: &'a Mesh) -> Self {
         assert_eq!(
             bvh.cones_fit,
             ConeFit::All,
@@ -97,6 +98,7 @@ impl<'a> ConeCull<'a> {
         ConeCull {
             cones: Cones {
                 bvh,
+                mesh,
                 from_leaves: false,
             },
         }
@@ -122,6 +124,8 @@ impl<'a> ConeCull<'a> {
 #[derive(Clone, Copy)]
 struct Cones<'a> {
     bvh: &'a Bvh,
+    /// The mesh `bvh` was built for (its leaves' patches).
+    mesh: &'a Mesh,
     from_leaves: bool,
 }
 
@@ -154,7 +158,8 @@ impl Cones<'_> {
     #[inline]
     fn adjacent_positive(&self, a: u32, b: u32) -> Option<(NormalCone, NormalCone)> {
         let p = &self.bvh.patches;
-        let adjacent = || have_common(p.boundary_of(a), p.boundary_of(b));
+        let m = self.mesh;
+        let adjacent = || have_common(&p.boundary_of(m, a), &p.boundary_of(m, b));
         if self.from_leaves && !adjacent() {
             return None;
         }
@@ -230,6 +235,7 @@ impl<'a> ContourCull<'a> {
             positions,
             cones: Cones {
                 bvh,
+                mesh,
                 from_leaves: bvh.cones_fit == ConeFit::Leaves,
             },
             reuse: None,
@@ -327,12 +333,14 @@ impl<'a> ContourCull<'a> {
             is_ccw(segs)
         };
         if a == b {
-            return ccw(p.contour_of(a), &mut s.segs);
+            return ccw(&p.contour_of(mesh, a), &mut s.segs);
         }
         let mut merged = std::mem::take(&mut s.merged);
-        let ok = match union_disk(p, a, b, &mut merged) {
+        let ok = match union_disk(p, mesh, a, b, &mut merged) {
             Some(true) => ccw(&merged, &mut s.segs),
-            Some(false) => ccw(p.contour_of(a), &mut s.segs) && ccw(p.contour_of(b), &mut s.segs),
+            Some(false) => {
+                ccw(&p.contour_of(mesh, a), &mut s.segs) && ccw(&p.contour_of(mesh, b), &mut s.segs)
+            }
             None => false,
         };
         s.merged = merged;
@@ -400,7 +408,7 @@ impl<'a> ContourCull<'a> {
     /// answer is recorded with its slack and the close pairs of both loops.
     fn union_is_height_field(&self, a: u32, b: u32, axis: DVec3, s: &mut ContourScratch) -> bool {
         let (bvh, p) = (self.bvh, &self.bvh.patches);
-        let Some(glued) = union_disk(p, a, b, &mut s.merged) else {
+        let Some(glued) = union_disk(p, self.mesh, a, b, &mut s.merged) else {
             return false;
         };
         let (box_a, box_b) = (&bvh.boxes[a as usize], &bvh.boxes[b as usize]);
@@ -424,7 +432,8 @@ impl<'a> ContourCull<'a> {
             loops,
             ..
         } = s;
-        let (ka, kb) = (p.contour_of(a), p.contour_of(b));
+        let (ka, kb) = (p.contour_of(self.mesh, a), p.contour_of(self.mesh, b));
+        let (ka, kb) = (&*ka, &*kb);
         let Some(r) = self.reuse else {
             return self.disk_is_height_field(ka, &plane, ca, segs, loops)
                 && self.disk_is_height_field(kb, &plane, cb, segs_b, loops)
@@ -449,12 +458,12 @@ impl<'a> ContourCull<'a> {
 /// into one disk (Euler characteristic 1, consistent winding), `Some(false)`
 /// when they are two disks touching only at vertices, `None` otherwise (no
 /// certificate).
-fn union_disk(p: &Patches, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool> {
+fn union_disk(p: &Patches, mesh: &Mesh, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool> {
     let (ea, eb) = (p.euler_of(a)?, p.euler_of(b)?);
-    let (ka, kb) = (p.contour_of(a), p.contour_of(b));
+    let (ka, kb) = (p.contour_of(mesh, a), p.contour_of(mesh, b));
     merged.reserve(ka.len() + kb.len());
-    let info = merge_contours(ka, kb, merged);
-    let shared_v = count_common(p.boundary_of(a), p.boundary_of(b)) as i32;
+    let info = merge_contours(&ka, &kb, merged);
+    let shared_v = count_common(&p.boundary_of(mesh, a), &p.boundary_of(mesh, b)) as i32;
     let euler = ea + eb - shared_v + info.shared_edges as i32;
     (!info.conflict && euler == 1).then_some(info.shared_edges > 0)
 }
@@ -463,7 +472,7 @@ fn union_disk(p: &Patches, a: u32, b: u32, merged: &mut Vec<u32>) -> Option<bool
 /// (Euler characteristic 1), and `loop_test` passing on its contour projected
 /// along the cone's axis about its box centre; counted in `c`.
 fn disk_certified(
-    bvh: &Bvh,
+    (bvh, mesh): (&Bvh, &Mesh),
     (n, cone): (u32, &NormalCone),
     c: &mut Counters,
     loop_test: impl FnOnce(&[u32], &Plane) -> bool,
@@ -475,7 +484,7 @@ fn disk_certified(
     let p = &bvh.patches;
     let ok = p.euler_of(n) == Some(1) && {
         let plane = Plane::new(cone.axis, bvh.boxes[n as usize].center());
-        loop_test(p.contour_of(n), &plane)
+        loop_test(&p.contour_of(mesh, n), &plane)
     };
     c.contour_fails += !ok as u64;
     c.self_culls += ok as u64;
@@ -488,7 +497,7 @@ impl Cull for ContourCull<'_> {
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
         let Some(r) = self.reuse else {
             let cone = self.cones.of(n);
-            return disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
+            return disk_certified((self.bvh, self.mesh), (n, &cone), c, |contour, plane| {
                 self.disk_is_height_field(contour, plane, [0.0; 2], &mut s.segs, &mut s.loops)
             });
         };
@@ -500,7 +509,7 @@ impl Cull for ContourCull<'_> {
             return true;
         }
         let cone = self.cones.of(n);
-        disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
+        disk_certified((self.bvh, self.mesh), (n, &cone), c, |contour, plane| {
             self.certify_disk(r, (n, n), contour, (cone.axis, plane), s)
         })
     }
@@ -554,7 +563,7 @@ impl<'a> SweptContourCull<'a> {
             mesh,
             x0,
             x1,
-            cones: ConeCull::new(bvh),
+            cones: ConeCull::new(bvh, mesh),
         }
     }
 
@@ -578,7 +587,7 @@ impl Cull for SweptContourCull<'_> {
 
     fn self_culled(&self, n: u32, s: &mut ContourScratch, c: &mut Counters) -> bool {
         let cone = self.cones.cones.of(n);
-        disk_certified(self.bvh, (n, &cone), c, |contour, plane| {
+        disk_certified((self.bvh, self.mesh), (n, &cone), c, |contour, plane| {
             self.disk_stays_height_field(contour, plane, s)
         })
     }
@@ -589,7 +598,7 @@ impl Cull for SweptContourCull<'_> {
         };
         c.contour_tests += 1;
         let bvh = self.bvh;
-        let ok = union_disk(&bvh.patches, a, b, &mut s.merged) == Some(true) && {
+        let ok = union_disk(&bvh.patches, self.mesh, a, b, &mut s.merged) == Some(true) && {
             let axis = ca.merge(&cb).axis;
             let center = bvh.boxes[a as usize].union(&bvh.boxes[b as usize]).center();
             let merged = std::mem::take(&mut s.merged);
@@ -638,7 +647,7 @@ mod tests {
         let mut bvh = build(mesh);
         bvh.refit(mesh, mesh.rest());
         let root = bvh.root();
-        let cones = ConeCull::new(&bvh);
+        let cones = ConeCull::new(&bvh, mesh);
         let contour = ContourCull::new(&bvh, mesh, mesh.rest());
         let mut c = Counters::default();
         (

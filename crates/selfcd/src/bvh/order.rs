@@ -80,7 +80,10 @@ impl Bvh {
         let p = &mut self.patches;
         p.euler = pick(&p.euler, &old_of);
         p.component = pick(&p.component, &old_of);
-        p.rows = old_of.iter().map(|&v| p.row(v as usize) as u32).collect();
+        p.rows = old_of[n..]
+            .iter()
+            .map(|&v| p.row(v as usize) as u32)
+            .collect();
         self.children = children;
         self.spans = spans;
         let mesh = mesh.reordered(&order);

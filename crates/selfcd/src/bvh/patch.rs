@@ -8,21 +8,31 @@
 //! of packed directed edges `edge_id << 1 | reversed`, with the sorted list of
 //! the patch's boundary vertices and its Euler characteristic.
 
+use super::build::sort_up_to_three;
 use crate::geom::loop2d::{Plane, Seg};
 use crate::mesh::{Csr, Mesh};
 use glam::DVec3;
 
 /// Per-node patch topology, fixed at build time.
+///
+/// A leaf's lists are its triangle's three directed edges and three
+/// corners ([`leaf_contour`], [`leaf_boundary`]); they are not stored, so
+/// `contour` and `boundary` hold the internal nodes' rows only (a third of
+/// the hierarchy's memory otherwise).
 #[derive(Debug, Clone, Default)]
 pub struct Patches {
-    /// Sorted packed directed contour edges of each node (its row: [`row`](Self::row)).
+    /// Number of leaves (the internal nodes' ids start here).
+    pub n_leaves: usize,
+    /// Sorted packed directed contour edges of each internal node (its row:
+    /// [`row`](Self::row)).
     pub contour: Csr,
-    /// Sorted boundary vertices of each node (the vertices of its contour).
+    /// Sorted boundary vertices of each internal node (the vertices of its
+    /// contour).
     pub boundary: Csr,
-    /// The row of `contour` and `boundary` of each node where the nodes
-    /// were renumbered after the build ([`super::Bvh::depth_first`]: the
-    /// rows stay where the build wrote them); empty when a node's row is
-    /// its id.
+    /// The row of `contour` and `boundary` of internal node `n_leaves + i`
+    /// (entry `i`) where the nodes were renumbered after the build
+    /// ([`super::Bvh::depth_first`]: the rows stay where the build wrote
+    /// them); empty when internal node `n_leaves + i`'s row is `i`.
     pub rows: Vec<u32>,
     /// Euler characteristic V - E + F of each node's patch, or [`INELIGIBLE`]
     /// when the patch holds a non-manifold element or inconsistent winding
@@ -33,6 +43,45 @@ pub struct Patches {
     /// components. Nodes with different tags, neither [`SEVERAL`], lie in
     /// different components, so they share no vertex.
     pub component: Vec<u8>,
+}
+
+/// A node's contour or boundary: an internal node's stored row, or a
+/// leaf's three entries, computed from the mesh.
+#[derive(Debug, Clone, Copy)]
+pub enum Row<'a> {
+    /// An internal node's row.
+    Stored(&'a [u32]),
+    /// A leaf's entries.
+    Leaf([u32; 3]),
+}
+
+impl std::ops::Deref for Row<'_> {
+    type Target = [u32];
+    #[inline]
+    fn deref(&self) -> &[u32] {
+        match self {
+            Row::Stored(s) => s,
+            Row::Leaf(a) => a,
+        }
+    }
+}
+
+/// The sorted packed directed edges of triangle `t`: its patch's contour.
+#[inline]
+pub fn leaf_contour(mesh: &Mesh, t: u32) -> [u32; 3] {
+    let tri = mesh.triangles()[t as usize];
+    let e = mesh.topology().tri_edges[t as usize];
+    let mut c = [0, 1, 2].map(|k| pack(e[k], tri[k], tri[(k + 1) % 3]));
+    sort_up_to_three(&mut c);
+    c
+}
+
+/// The sorted corners of triangle `t`: its patch's boundary.
+#[inline]
+pub fn leaf_boundary(mesh: &Mesh, t: u32) -> [u32; 3] {
+    let mut v = mesh.triangles()[t as usize];
+    sort_up_to_three(&mut v);
+    v
 }
 
 /// The Euler characteristic stored for a patch the contour test refuses.
@@ -159,22 +208,31 @@ pub fn have_common(a: &[u32], b: &[u32]) -> bool {
 }
 
 impl Patches {
-    /// The row of `contour` and `boundary` that holds `node`'s lists.
+    /// The row of `contour` and `boundary` that holds internal node `node`'s
+    /// lists.
     #[inline]
     pub fn row(&self, node: usize) -> usize {
-        self.rows.get(node).map_or(node, |&r| r as usize)
+        let i = node - self.n_leaves;
+        self.rows.get(i).map_or(i, |&r| r as usize)
     }
 
-    /// Contour of `node`.
+    /// Contour of `node`, of the hierarchy built for `mesh` (whose triangle
+    /// `t` is leaf `t`).
     #[inline]
-    pub fn contour_of(&self, node: u32) -> &[u32] {
-        self.contour.row(self.row(node as usize))
+    pub fn contour_of(&self, mesh: &Mesh, node: u32) -> Row<'_> {
+        if (node as usize) < self.n_leaves {
+            return Row::Leaf(leaf_contour(mesh, node));
+        }
+        Row::Stored(self.contour.row(self.row(node as usize)))
     }
 
-    /// Boundary vertices of `node`.
+    /// Boundary vertices of `node`, of the hierarchy built for `mesh`.
     #[inline]
-    pub fn boundary_of(&self, node: u32) -> &[u32] {
-        self.boundary.row(self.row(node as usize))
+    pub fn boundary_of(&self, mesh: &Mesh, node: u32) -> Row<'_> {
+        if (node as usize) < self.n_leaves {
+            return Row::Leaf(leaf_boundary(mesh, node));
+        }
+        Row::Stored(self.boundary.row(self.row(node as usize)))
     }
 
     /// Euler characteristic of an eligible node (manifold, consistent winding),

@@ -258,7 +258,7 @@ pub fn self_traverse_from<V: LeafVisitor>(
     match (opts.cones, opts.contour) {
         (false, _) => traverse_from(bvh, mesh, gap, &BoxesOnly, visitor, start),
         (true, false) => {
-            let cull = ConeCull::new(bvh);
+            let cull = ConeCull::new(bvh, mesh);
             traverse_from(bvh, mesh, gap, &cull, visitor, start)
         }
         (true, true) => {
