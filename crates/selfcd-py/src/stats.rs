@@ -43,6 +43,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("candidate_reuses", U(s.candidate_reuses)),
         ("candidates", U(s.candidates)),
         ("continuous_repeats", U(s.continuous_repeats)),
+        ("continuous_from_proximity", U(s.continuous_from_proximity)),
         ("triggered", B(s.triggered)),
         ("relax_steps", U(s.relax_steps as u64)),
         ("moving_particles", U(s.moving_particles as u64)),

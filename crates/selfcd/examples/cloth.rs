@@ -75,7 +75,7 @@ fn run() -> Result<(), String> {
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
     let (mut builds, mut reuses, mut node_pairs, mut leaf_tests) = (0u64, 0u64, 0u64, 0u64);
-    let (mut repeats, mut proved) = (0u64, 0u64);
+    let (mut repeats, mut proved, mut from_proximity) = (0u64, 0u64, 0u64);
     let (mut fit_time, mut query_time, mut candidates) = (0.0, 0.0, 0u64);
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
@@ -94,6 +94,7 @@ fn run() -> Result<(), String> {
         builds += st.detection.candidate_builds;
         reuses += st.detection.candidate_reuses;
         repeats += st.detection.continuous_repeats;
+        from_proximity += st.detection.continuous_from_proximity;
         proved += st.proved_clear as u64;
         node_pairs += st.detection.node_pairs;
         leaf_tests += st.detection.proximity_tests;
@@ -139,7 +140,7 @@ fn run() -> Result<(), String> {
         rounds as f64 / s
     );
     println!(
-        "candidate sets built {builds}, queries answered from a cached set {reuses}, continuous repeats re-tested around changed vertices {repeats}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
+        "candidate sets built {builds}, queries answered from a cached set {reuses}, continuous repeats re-tested around changed vertices {repeats}, continuous queries from the proximity answer {from_proximity}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
         node_pairs as f64 / s,
         leaf_tests as f64 / s
     );

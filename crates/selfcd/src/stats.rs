@@ -62,6 +62,10 @@ pub struct FrameStats {
     /// few end positions changed, answered by re-testing only the triangles
     /// touching those (reused work).
     pub continuous_repeats: u64,
+    /// Coherent queries: continuous queries answered from the last
+    /// proximity query's answer, taken at their start, and the traversal of
+    /// the pairs the step's motion may have brought in (reused work).
+    pub continuous_from_proximity: u64,
     /// Sensor-gated only: did the sensor trigger the traversal this frame.
     pub triggered: Option<bool>,
     /// Sensor-gated only: particle updates made while relaxing.

@@ -332,14 +332,29 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         let near = thin.proximity(&x0, reach, &mut thin_stats).unwrap();
         assert_eq!(near, want, "frame {frame}, thin skin");
         contacts += near.vertex_triangle.len() + near.edge_edge.len();
-        for separation in [0.05 * e, reach, 1.5 * reach] {
-            let want = fresh.continuous(&x0, &x1, separation).unwrap();
+        // Every tenth frame also a step five times as long, which the
+        // proximity answer at x0 covers less of (the step's motion culls less).
+        let long: Vec<_> = x0
+            .iter()
+            .zip(&x1)
+            .map(|(a, b)| *a + 5.0 * (*b - *a))
+            .collect();
+        let ends: &[&[_]] = if frame % 10 == 0 {
+            &[&x1, &long]
+        } else {
+            &[&x1]
+        };
+        for (separation, x1) in [0.05 * e, reach, 1.5 * reach]
+            .into_iter()
+            .flat_map(|s| ends.iter().map(move |x1| (s, *x1)))
+        {
+            let want = fresh.continuous(&x0, x1, separation).unwrap();
             let got = coherent
-                .continuous(&x0, &x1, separation, &mut stats)
+                .continuous(&x0, x1, separation, &mut stats)
                 .unwrap();
             assert_eq!(got, want, "frame {frame}, separation {separation}");
             let got = thin
-                .continuous(&x0, &x1, separation, &mut thin_stats)
+                .continuous(&x0, x1, separation, &mut thin_stats)
                 .unwrap();
             assert_eq!(
                 got, want,
@@ -357,6 +372,10 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
             s.candidate_builds, s.candidate_reuses, s.proximity_tests
         );
         assert!(s.candidate_builds > 1 && s.candidate_reuses > s.candidate_builds);
+        // Each frame's thinnest query starts where the proximity was taken
+        // (for the ten-times-longer step too), the wider ones do not fit in
+        // its reach.
+        assert_eq!(s.continuous_from_proximity, 240 + 24, "{name}");
     }
     assert!(
         contacts > 0 && impacts > 0,
