@@ -267,8 +267,10 @@ struct Motion {
     ends: usize,
     /// `e_k[i]` at `k * n_vertices + i`.
     vertex: Vec<DVec3>,
-    /// Box of end `k` of node `n` at `k * n_nodes + n`.
+    /// Box of end `k` of node `n` at `k * nodes + n`.
     node: Vec<Aabb>,
+    /// Number of nodes (of the boxes last fitted).
+    nodes: usize,
     /// Box of end `k` over all vertices.
     whole: Vec<Aabb>,
     /// Largest coordinate magnitude of the query's positions.
@@ -304,6 +306,7 @@ impl Motion {
         if self.whole_spread() < allowance {
             return; // every pair is covered: no traversal, no node boxes
         }
+        self.nodes = nn;
         self.node.resize(nn * ends.len(), Aabb::EMPTY);
         for k in 0..ends.len() {
             let e = &self.vertex[k * nv..(k + 1) * nv];
@@ -324,7 +327,7 @@ impl Motion {
     /// larger of the ends'.
     #[inline]
     fn node_spread(&self, a: u32, b: u32) -> f64 {
-        let nn = self.node.len() / self.ends.max(1);
+        let nn = self.nodes;
         (0..self.ends)
             .map(|k| {
                 spread(
