@@ -14,7 +14,7 @@
 
 use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
 use super::predicates::{exponent, mul_pow2};
-use super::tri_tri::triangles_intersect;
+use super::tri_tri::{point_in_triangle, segments_intersect};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -129,12 +129,12 @@ fn never_coplanar(x0: &[DVec3; 4], x1: &[DVec3; 4]) -> bool {
 
 /// Do the two elements of stencil `x` share a point, exactly: point `x[0]`
 /// and the closed triangle `x[1], x[2], x[3]`, or the closed segments
-/// `x[0] x[1]` and `x[2] x[3]`; each element as the collapsed triangle it
-/// is ([`triangles_intersect`] takes those as their edges and points).
+/// `x[0] x[1]` and `x[2] x[3]` (degenerate elements as what they are). One
+/// orientation decides the usual stencil, off each other's plane.
 fn stencil_touches(pair: StencilKind, x: [DVec3; 4]) -> bool {
     match pair {
-        StencilKind::VertexTriangle => triangles_intersect(&[x[0]; 3], &[x[1], x[2], x[3]]),
-        StencilKind::EdgeEdge => triangles_intersect(&[x[0], x[1], x[1]], &[x[2], x[3], x[3]]),
+        StencilKind::VertexTriangle => point_in_triangle(x[0], &[x[1], x[2], x[3]]),
+        StencilKind::EdgeEdge => segments_intersect(x[0], x[1], x[2], x[3]),
     }
 }
 

@@ -103,6 +103,67 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     }
 }
 
+/// True when point `p` lies in closed triangle `t` (a degenerate triangle as
+/// the segment or point it is). Exact for every finite input; decided by
+/// comparisons when `p` is outside the triangle's box, by one orientation
+/// when it is off the triangle's plane.
+pub fn point_in_triangle(p: DVec3, t: &[DVec3; 3]) -> bool {
+    if !boxes_meet(&[p], t) {
+        return false;
+    }
+    let q = [t[0], t[1], t[2], p];
+    match Expansion::new(q) {
+        Some(k) => point_in_triangle_3d(&k),
+        None => point_in_triangle_3d(&BigInts::new(&q)),
+    }
+}
+
+/// True when closed segments `[a, b]` and `[c, d]` share a point (zero-length
+/// segments allowed). Exact for every finite input; decided by comparisons
+/// when their boxes are apart, by one orientation when they are skew.
+pub fn segments_intersect(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
+    if !boxes_meet(&[a, b], &[c, d]) {
+        return false;
+    }
+    let q = [a, b, c, d];
+    match Expansion::new(q) {
+        Some(k) => segments_intersect_3d(&k, 0, 1, 2, 3),
+        None => segments_intersect_3d(&BigInts::new(&q), 0, 1, 2, 3),
+    }
+}
+
+/// Do the closed boxes of point sets `a` and `b` share a point? (Exact:
+/// comparisons only.)
+#[inline]
+fn boxes_meet(a: &[DVec3], b: &[DVec3]) -> bool {
+    let lo = |p: &[DVec3]| p.iter().fold(p[0], |m, q| m.min(*q));
+    let hi = |p: &[DVec3]| p.iter().fold(p[0], |m, q| m.max(*q));
+    lo(a).cmple(hi(b)).all() && lo(b).cmple(hi(a)).all()
+}
+
+/// Do points `p` share one coordinate exactly (lie in a plane normal to an
+/// axis)? Then they are coplanar, which comparisons settle where the
+/// orientation's filter could not (its value is exactly 0): a sheet of
+/// cloth lying flat, as the benchmark grids and many rest shapes do.
+#[inline]
+fn on_axis_plane<K: Orientation>(k: &K, p: [usize; 4]) -> bool {
+    (0..3).any(|c| p[1..].iter().all(|&q| k.cmp(c, p[0], q) == Ordering::Equal))
+}
+
+/// Point 3 lies in closed triangle 0, 1, 2 of `k`.
+fn point_in_triangle_3d<K: Orientation>(k: &K) -> bool {
+    let t = [0, 1, 2];
+    if !on_axis_plane(k, [0, 1, 2, 3]) && k.orient3d([0, 1, 2, 3]) != 0 {
+        return false; // off the plane (a degenerate triangle's volume is 0)
+    }
+    match k.normal_axis(t) {
+        Some(axis) => point_in_triangle_2d(k, axis, 3, t),
+        None => edges(t)
+            .iter()
+            .any(|e| segments_intersect_3d(k, e[0], e[1], 3, 3)),
+    }
+}
+
 const A: [usize; 3] = [0, 1, 2];
 const B: [usize; 3] = [3, 4, 5];
 
@@ -239,7 +300,7 @@ fn segments_intersect_3d<K: Orientation>(
     q1: usize,
     q2: usize,
 ) -> bool {
-    if k.orient3d([p1, p2, q1, q2]) != 0 {
+    if !on_axis_plane(k, [p1, p2, q1, q2]) && k.orient3d([p1, p2, q1, q2]) != 0 {
         return false; // skew lines never meet
     }
     let axis = k
@@ -356,6 +417,37 @@ mod tests {
     /// The plane clearance never exceeds the distance between the
     /// triangles, and corners moved by less than half of it leave them
     /// apart; at every scale, and 0 where the triangles cross a plane.
+    /// The point and segment tests decide as the triangle test does on the
+    /// elements as collapsed triangles: on small-integer coordinates (many
+    /// coplanar, collinear, coincident and touching cases), scaled to the
+    /// extremes of the doubles, and spread beyond the expansions' range.
+    #[test]
+    fn point_and_segment_tests_agree_with_collapsed_triangles() {
+        let mut rng = crate::scene::SplitMix::new(31);
+        let mut grid = || (rng.next_u64() % 3) as f64 - 1.0;
+        let (mut touching, mut total) = (0, 0);
+        for _ in 0..20_000 {
+            let p: [DVec3; 4] = std::array::from_fn(|_| v(grid(), grid(), grid()));
+            for scale in [1.0, 2f64.powi(-1000), 2f64.powi(1000), 3.0e-7] {
+                let q = p.map(|x| x * scale);
+                let mut spread = q;
+                spread[3] = spread[3] * 2f64.powi(-600) + q[0];
+                for q in [q, spread] {
+                    let want = triangles_intersect(&[q[3]; 3], &[q[0], q[1], q[2]]);
+                    assert_eq!(point_in_triangle(q[3], &[q[0], q[1], q[2]]), want, "{q:?}");
+                    let want = triangles_intersect(&[q[0], q[1], q[1]], &[q[2], q[3], q[3]]);
+                    assert_eq!(segments_intersect(q[0], q[1], q[2], q[3]), want, "{q:?}");
+                    touching += want as u32;
+                    total += 1;
+                }
+            }
+        }
+        assert!(
+            touching > total / 10 && touching < total * 9 / 10,
+            "{touching} of {total}"
+        );
+    }
+
     #[test]
     fn plane_clearance_bounds_the_distance() {
         use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
