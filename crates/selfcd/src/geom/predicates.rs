@@ -118,10 +118,9 @@ pub struct Expansion<const N: usize> {
 const MAX_SPREAD: i32 = 500;
 
 impl<const N: usize> Expansion<N> {
-    /// The points, scaled by [`scale_exactly`] (largest coordinate in
-    /// [2^300, 2^301)) unless every non-zero coordinate already lies in
-    /// [2^-200, 2^301), or None when their non-zero coordinates span 2^500
-    /// or more (or one is infinite): then use [`BigInts`]. Precondition: no NaN.
+    /// The points scaled by [`scale_exactly`] (largest coordinate in
+    /// [2^300, 2^301)), or None when their non-zero coordinates span 2^500 or
+    /// more (or one is infinite): then use [`BigInts`]. Precondition: no NaN.
     ///
     /// Why this is exact: afterwards every non-zero coordinate lies in
     /// [2^-200, 2^301), so (having 53 bits) it is a multiple of 2^-252. A
@@ -145,16 +144,13 @@ impl<const N: usize> Expansion<N> {
             return None;
         }
         if hi != 0.0 {
-            let (top, bottom) = (exponent(hi), exponent(lo));
-            if top - bottom >= MAX_SPREAD {
+            let top = exponent(hi);
+            if top - exponent(lo) >= MAX_SPREAD {
                 return None;
             }
-            // Already in the range below (most meshes): nothing to move.
-            if top > SAFE_EXPONENT || bottom < SAFE_EXPONENT - MAX_SPREAD {
-                // What `scale_exactly` does, with the largest coordinate already known.
-                let k = SAFE_EXPONENT - top;
-                p.iter_mut().for_each(|q| *q = mul_pow2(*q, k));
-            }
+            // What `scale_exactly` does, with the largest coordinate already known.
+            let k = SAFE_EXPONENT - top;
+            p.iter_mut().for_each(|q| *q = mul_pow2(*q, k));
         }
         Some(Expansion { p })
     }
