@@ -53,7 +53,9 @@
 //! it did keeps its clearance, and a new job stores its clearance less twice
 //! that displacement (its bound for any later frame through the reference).
 //! Measuring costs about a fifth of a frame, so the caller measures only
-//! where the motion is slow enough for it to pay ([`Clearances`]).
+//! where the motion is slow enough for it to pay ([`Clearances`]). Jobs
+//! clear enough to be skipped for many frames can be set apart, so that
+//! those frames do not even read them ([`Front::set_far`]).
 //!
 //! Top levels run in parallel with `rayon::join` (a front, by chunks); each
 //! task keeps its own results, counters and cull buffers, and the join order
@@ -171,9 +173,18 @@ impl Clearances {
 /// in chunks: one parallel task each, whose jobs' own front is the next
 /// front's chunk (no copy into one list). Valid for the hierarchy that
 /// recorded it only: it holds node ids.
+///
+/// The jobs clearer than a limit may be set apart ([`set_far`](Front::set_far)).
+/// A traversal skipping by clearances that would skip every one of them
+/// (twice its largest move within the limit) does not read them, and the
+/// front it records takes them over ([`carry_far`](Front::carry_far)); any
+/// other runs them after the others, and its front has none set apart.
 #[derive(Debug, Clone, Default)]
 pub struct Front {
     chunks: Vec<Vec<Stop>>,
+    far: Vec<Vec<Stop>>,
+    /// Every job in `far` is clearer than this, in the clearances' unit.
+    far_limit: f64,
 }
 
 /// A job at which a traversal stopped, with its clearance at the front's
@@ -217,12 +228,57 @@ fn clear_unit(mesh: &Mesh) -> f64 {
 impl Front {
     /// Number of jobs.
     pub fn len(&self) -> usize {
-        self.chunks.iter().map(Vec::len).sum()
+        self.chunks.iter().chain(&self.far).map(Vec::len).sum()
     }
 
     /// True when the traversal stopped nowhere below the root (a leaf root).
     pub fn is_empty(&self) -> bool {
-        self.chunks.iter().all(Vec::is_empty)
+        self.chunks.iter().chain(&self.far).all(Vec::is_empty)
+    }
+
+    /// Sets apart the jobs clearer than `clearance` (a length), of a
+    /// traversal of the hierarchy built for `mesh` (type doc), keeping their
+    /// order.
+    pub fn set_far(&mut self, mesh: &Mesh, clearance: f64) {
+        let limit = clearance / clear_unit(mesh);
+        let (mut near, mut far) = (Vec::new(), Vec::new());
+        let chunks = std::mem::take(&mut self.chunks).into_iter();
+        for chunk in chunks.chain(std::mem::take(&mut self.far)) {
+            let (f, n): (Vec<Stop>, Vec<Stop>) =
+                chunk.into_iter().partition(|s| s.clear as f64 > limit);
+            near.extend((!n.is_empty()).then_some(n));
+            far.extend((!f.is_empty()).then_some(f));
+        }
+        (self.chunks, self.far, self.far_limit) = (near, far, limit);
+    }
+
+    /// Takes over the jobs `from` set apart, where the traversal from `from`
+    /// with `clearances` (whose front this is) skipped them. False when it
+    /// read them instead (then this front has none set apart).
+    pub fn carry_far(&mut self, from: &mut Front, clearances: Clearances, mesh: &Mesh) -> bool {
+        if from.far.is_empty() {
+            return true;
+        }
+        let skipped = from.skips_far(clearances, clear_unit(mesh));
+        if skipped {
+            self.far = std::mem::take(&mut from.far);
+            self.far_limit = from.far_limit;
+        }
+        skipped
+    }
+
+    /// Number of jobs set apart, and the limit they are clearer than (in
+    /// the clearances' unit).
+    pub fn far(&self) -> (usize, f64) {
+        (self.far.iter().map(Vec::len).sum(), self.far_limit)
+    }
+
+    /// Would a traversal with `clearances` skip every job set apart
+    /// (clearances in units of `unit`)?
+    fn skips_far(&self, clearances: Clearances, unit: f64) -> bool {
+        clearances
+            .twice_moved()
+            .is_some_and(|m| m / unit <= self.far_limit)
     }
 }
 
@@ -313,7 +369,18 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
         unit: clear_unit(mesh),
     };
     let acc = match start {
-        Start::Front(front, _) => ctx.front_task(&front.chunks),
+        Start::Front(front, c) => {
+            let skips_far = front.skips_far(c, ctx.unit);
+            let mut chunks: Vec<&Vec<Stop>> = front.chunks.iter().collect();
+            if !skips_far {
+                chunks.extend(&front.far);
+            }
+            let mut acc = ctx.front_task(&chunks);
+            if skips_far {
+                acc.counters.front_skips += front.far.iter().map(Vec::len).sum::<usize>() as u64;
+            }
+            acc
+        }
         Start::Root | Start::RootRecording => {
             // Spawn parallel tasks only where there is enough work to share.
             let par_depth = if bvh.n_leaves >= 4096 { 10 } else { 0 };
@@ -332,6 +399,7 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
             let jobs = front.into_vec();
             Some(Front {
                 chunks: jobs.chunks(FRONT_CHUNK).map(<[Stop]>::to_vec).collect(),
+                ..Front::default()
             })
         }
         Start::Front(kept, _) => {
@@ -339,6 +407,7 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
             // Each chunk's task gave one chunk of the new front.
             Some(Front {
                 chunks: front.into_chunks(),
+                ..Front::default()
             })
         }
     };
@@ -501,7 +570,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     /// The jobs of a front, a chunk per parallel task, each job run as the
     /// descent runs it; the tasks' fronts are the new front's chunks (a
     /// chunk's task joins nothing, so its whole front is one).
-    fn front_task(&self, chunks: &[Vec<Stop>]) -> Acc<V::Item, C::Scratch> {
+    fn front_task(&self, chunks: &[&Vec<Stop>]) -> Acc<V::Item, C::Scratch> {
         // Jobs clearer than this (in the clearances' unit) stop where they
         // did, finding nothing (none when these positions become the
         // reference). Dividing by a power of two is exact, or overflows to
@@ -540,7 +609,7 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
             }
             acc
         };
-        let accs: Vec<_> = chunks.par_iter().map(chunk).collect();
+        let accs: Vec<_> = chunks.par_iter().map(|&c| chunk(c)).collect();
         accs.into_iter().fold(Acc::new(), Acc::join)
     }
 
