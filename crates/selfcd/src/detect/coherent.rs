@@ -50,10 +50,11 @@
 //! query as the candidate set does (its allowance is `reach - thickness`,
 //! and the spread is the step's own displacement, one end): a pair of
 //! spread below it that comes within `thickness` was within `reach` at
-//! `x0`, so it is in the answer. On the 20k centre scene the step moves the
-//! cloth far less than the candidate set's reference lies behind, and the
-//! answer holds a third of the set's pairs, so the continuous query reads
-//! it whenever it starts where the last proximity query was taken.
+//! `x0`, so it is in the answer. One step moves the mesh less than the
+//! steps since the candidate set's reference did, and the answer is smaller
+//! than the set, so the continuous query reads it whenever it starts where
+//! the last proximity query was taken (on the 20k centre scene its time
+//! fell from 19 to 12 ms a step; BENCHMARKS.md, twenty-first landing).
 //!
 //! **Repeated continuous queries.** A continuous query from the same start
 //! with the same thickness as the last one, whose end positions differ only
