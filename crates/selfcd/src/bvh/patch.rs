@@ -17,8 +17,9 @@ use glam::DVec3;
 ///
 /// A leaf's lists are its triangle's three directed edges and three
 /// corners ([`leaf_contour`], [`leaf_boundary`]); they are not stored, so
-/// `contour` and `boundary` hold the internal nodes' rows only (a third of
-/// the hierarchy's memory otherwise).
+/// `contour` and `boundary` hold the internal nodes' rows only (the leaves'
+/// rows and offsets were 32 of the hierarchy's 313 bytes a triangle on the
+/// garments).
 #[derive(Debug, Clone, Default)]
 pub struct Patches {
     /// Number of leaves (the internal nodes' ids start here).

@@ -414,9 +414,6 @@ mod tests {
         );
     }
 
-    /// The plane clearance never exceeds the distance between the
-    /// triangles, and corners moved by less than half of it leave them
-    /// apart; at every scale, and 0 where the triangles cross a plane.
     /// The point and segment tests decide as the triangle test does on the
     /// elements as collapsed triangles: on small-integer coordinates (many
     /// coplanar, collinear, coincident and touching cases), scaled to the
@@ -448,6 +445,9 @@ mod tests {
         );
     }
 
+    /// The plane clearance never exceeds the distance between the
+    /// triangles, and corners moved by less than half of it leave them
+    /// apart; at every scale, and 0 where the triangles cross a plane.
     #[test]
     fn plane_clearance_bounds_the_distance() {
         use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
