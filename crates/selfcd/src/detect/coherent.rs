@@ -160,11 +160,14 @@ impl Kind {
 }
 
 impl Candidates {
-    /// The answer `near` of a proximity query within `reach` at `x` as a
-    /// set without skin: its pairs are every owned pair within `reach` at
-    /// `x`, in the answer's order.
-    fn answer(mesh: &Mesh, x: &[DVec3], reach: f64, near: &ProximityContacts) -> Candidates {
-        let vt = near.vertex_triangle.iter().map(|c| {
+    /// Becomes the answer `near` of a proximity query within `reach` at
+    /// `x`, as a set without skin: its pairs are every owned pair within
+    /// `reach` at `x`, in the answer's order. Reuses this set's buffers (a
+    /// simulator records an answer every step).
+    fn set_answer(&mut self, mesh: &Mesh, x: &[DVec3], reach: f64, near: &ProximityContacts) {
+        self.reference.clear();
+        self.reference.extend_from_slice(x);
+        let vt = (near.vertex_triangle.iter()).map(|c| {
             (
                 c.distance,
                 ElementPair::VertexTriangle(c.vertex, c.triangle),
@@ -172,20 +175,27 @@ impl Candidates {
         });
         let ee = (near.edge_edge.iter())
             .map(|c| (c.distance, ElementPair::EdgeEdge(c.edges[0], c.edges[1])));
-        let (distance, pairs): (Vec<f64>, Vec<ElementPair>) = vt.chain(ee).unzip();
-        let tris = filter_map_ordered(0..pairs.len(), |k| Some(pairs[k].visiting_triangles(mesh)));
-        Candidates {
-            reference: x.to_vec(),
-            reach,
-            skin: 0.0,
-            vertex_triangles: near.vertex_triangle.len(),
-            within: pairs.len(),
-            pairs,
-            tris,
-            distance,
-            magnitude: magnitude(x),
-            build_tests: 0,
+        self.distance.clear();
+        self.pairs.clear();
+        for (d, p) in vt.chain(ee) {
+            self.distance.push(d);
+            self.pairs.push(p);
         }
+        self.tris.clear();
+        let visiting = |p: &ElementPair| p.visiting_triangles(mesh);
+        if self.pairs.len() >= PAR_MIN {
+            self.tris.par_extend(self.pairs.par_iter().map(visiting));
+        } else {
+            self.tris.extend(self.pairs.iter().map(visiting));
+        }
+        (self.reach, self.skin, self.magnitude) = (reach, 0.0, magnitude(x));
+        (self.vertex_triangles, self.within) = (near.vertex_triangle.len(), self.pairs.len());
+        self.build_tests = 0;
+    }
+
+    /// Marks the set empty (no reference), keeping its buffers.
+    fn clear(&mut self) {
+        self.reference.clear();
     }
 
     /// The spread below which every pair within `reach` at positions of
@@ -768,7 +778,7 @@ impl SelfQueries {
     ) -> Result<ProximityContacts> {
         self.mesh.check_positions(x)?;
         check_thickness(thickness)?;
-        self.near = Candidates::default();
+        self.near.clear();
         let (allowance, kind) = self.prepare(&[x], thickness, s)?;
         if !self.all_covered(allowance) {
             self.fit_static(x, s);
@@ -816,7 +826,7 @@ impl SelfQueries {
         }
         let out = collect_proximity(fresh).merge(from_set);
         s.proximity_contacts = (out.vertex_triangle.len() + out.edge_edge.len()) as u64;
-        self.near = Candidates::answer(&mesh, x, thickness, &out);
+        self.near.set_answer(&mesh, x, thickness, &out);
         s.traverse_time += t0.elapsed().as_secs_f64();
         Ok(out)
     }
