@@ -146,7 +146,7 @@ fn boxes_meet(a: &[DVec3], b: &[DVec3]) -> bool {
 /// orientation's filter could not (its value is exactly 0): a sheet of
 /// cloth lying flat, as the benchmark grids and many rest shapes do.
 #[inline]
-fn on_axis_plane<K: Orientation>(k: &K, p: [usize; 4]) -> bool {
+fn on_axis_plane<K: Orientation, const N: usize>(k: &K, p: [usize; N]) -> bool {
     (0..3).any(|c| p[1..].iter().all(|&q| k.cmp(c, p[0], q) == Ordering::Equal))
 }
 
@@ -170,6 +170,12 @@ const B: [usize; 3] = [3, 4, 5];
 /// The decision on corners a = 0, 1, 2 and b = 3, 4, 5 of `k`.
 #[inline]
 fn intersect<K: Orientation>(k: &K) -> bool {
+    // Both in one plane normal to an axis: all six orientations below are
+    // exactly 0, which their filters cannot show (the exact fallback, four
+    // times the cost of the whole 2-D test); comparisons can.
+    if on_axis_plane(k, [0, 1, 2, 3, 4, 5]) {
+        return edge_tests(k, [0; 3], [0; 3]);
+    }
     // Plane-side rejection first: it settles most pairs, and it is valid for
     // degenerate triangles too (their orientations are all zero, never one-sided).
     let sb = B.map(|p| k.orient3d([A[0], A[1], A[2], p]));
@@ -183,20 +189,23 @@ fn intersect<K: Orientation>(k: &K) -> bool {
     if sa.iter().chain(&sb).all(|&x| x != 0) {
         crossing(k, sa, sb)
     } else {
-        edge_tests(k, sb)
+        edge_tests(k, sa, sb)
     }
 }
 
 /// The decision once neither triangle is strictly on one side of the
-/// other's plane (`sb`: b's corners' sides of a's plane), by their edges:
-/// correct for every such pair, degenerate and coplanar ones included.
-fn edge_tests<K: Orientation>(k: &K, sb: [i8; 3]) -> bool {
+/// other's plane (`sa`: a's corners' sides of b's plane, `sb`: b's of a's),
+/// by their edges: correct for every such pair, degenerate and coplanar
+/// ones included.
+fn edge_tests<K: Orientation>(k: &K, sa: [i8; 3], sb: [i8; 3]) -> bool {
     let na = k.normal_axis(A);
     let nb = k.normal_axis(B);
+    // Corner i's side of the other triangle's plane (a: 0..3, b: 3..6).
+    let side = [sa[0], sa[1], sa[2], sb[0], sb[1], sb[2]];
     let any_edge = |x: [usize; 3], y: [usize; 3], axis: usize| {
         edges(x)
             .iter()
-            .any(|e| segment_triangle(k, e[0], e[1], y, axis))
+            .any(|&[p, q]| segment_triangle(k, [p, q], [side[p], side[q]], y, axis))
     };
     match (na, nb) {
         (None, None) => edges(A).iter().any(|ea| {
@@ -255,10 +264,15 @@ fn strictly_one_side(s: [i8; 3]) -> bool {
 }
 
 /// Closed segment [p, q] against closed non-degenerate triangle t, whose
-/// normal has a non-zero component along `axis`.
-fn segment_triangle<K: Orientation>(k: &K, p: usize, q: usize, t: [usize; 3], axis: usize) -> bool {
-    let op = k.orient3d([t[0], t[1], t[2], p]);
-    let oq = k.orient3d([t[0], t[1], t[2], q]);
+/// normal has a non-zero component along `axis`; `[op, oq]`: p's and q's
+/// sides of t's plane (`orient3d([t0, t1, t2, p])`, known to the caller).
+fn segment_triangle<K: Orientation>(
+    k: &K,
+    [p, q]: [usize; 2],
+    [op, oq]: [i8; 2],
+    t: [usize; 3],
+    axis: usize,
+) -> bool {
     if op * oq > 0 {
         return false;
     }
@@ -375,7 +389,7 @@ mod tests {
         if strictly_one_side(sa) || strictly_one_side(sb) || sa.iter().chain(&sb).any(|&x| x == 0) {
             return None;
         }
-        let edges_say = edge_tests(&kx, sb);
+        let edges_say = edge_tests(&kx, sa, sb);
         let touch = crossing_orientations(&kx, sa, sb).contains(&0);
         Some((crossing(&kx, sa, sb), edges_say, touch))
     }
@@ -443,6 +457,37 @@ mod tests {
             touching > total / 10 && touching < total * 9 / 10,
             "{touching} of {total}"
         );
+    }
+
+    /// Pairs lying in one plane normal to an axis (decided by comparisons,
+    /// without orientations) get the answer of the same pairs mapped into
+    /// a tilted plane by an exact injective affine map (decided through
+    /// the orientations), on small-integer corners (touching, collinear,
+    /// collapsed and overlapping cases) and for each axis.
+    #[test]
+    fn axis_plane_pairs_agree_with_tilted_ones() {
+        let mut rng = crate::scene::SplitMix::new(37);
+        let mut grid = || (rng.next_u64() % 5) as f64 - 2.0;
+        let (mut meet, mut total) = (0, 0);
+        for n in 0..60_000 {
+            let uv: [[f64; 2]; 6] = std::array::from_fn(|_| [grid(), grid()]);
+            let axis = n % 3;
+            // The plane normal to `axis` at 3, and the plane w = u + 2v.
+            let place = |[u, w]: [f64; 2], c: f64| {
+                let mut x = [0.0; 3];
+                (x[axis], x[(axis + 1) % 3], x[(axis + 2) % 3]) = (c, u, w);
+                DVec3::from(x)
+            };
+            let flat = uv.map(|p| place(p, 3.0));
+            let tilted = uv.map(|p| place(p, p[0] + 2.0 * p[1]));
+            let split = |q: [DVec3; 6]| ([q[0], q[1], q[2]], [q[3], q[4], q[5]]);
+            let ((a, b), (c, d)) = (split(flat), split(tilted));
+            let want = triangles_intersect(&c, &d);
+            assert_eq!(triangles_intersect(&a, &b), want, "{uv:?} axis {axis}");
+            meet += want as u32;
+            total += 1;
+        }
+        assert!(meet > total / 10 && meet < total * 9 / 10, "{meet} of {total}");
     }
 
     /// The plane clearance never exceeds the distance between the
