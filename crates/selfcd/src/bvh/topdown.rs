@@ -66,6 +66,16 @@ use std::sync::OnceLock;
 /// seventeenth landing); 48 cost the folded grid 5-8% more for no further
 /// gain elsewhere.
 const LEAF: usize = 32;
+/// 0, 1, ..., 63: the places in a leaf.
+const IDS: [u8; 64] = {
+    let mut ids = [0u8; 64];
+    let mut i = 0;
+    while i < 64 {
+        ids[i] = i as u8;
+        i += 1;
+    }
+    ids
+};
 /// Nodes of at least this many triangles run their halves as parallel tasks.
 const PAR_MIN: usize = 2048;
 /// Triangles per parallel task of one node's certificate passes.
@@ -949,33 +959,37 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn leaf_self(&self, node: &mut Node, f: &mut Found<V::Item>) {
         let leaf = self.leaf_tris(node);
         for (i, p) in leaf.iter().enumerate() {
-            self.test_near(p, &leaf[i + 1..], f);
+            self.test_near(p, leaf, &IDS[i + 1..leaf.len()], f);
         }
     }
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
     fn leaf_pair(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
-        let mut near_b = [LeafTri::default(); LEAF];
-        let lb = self.near(self.leaf_tris(b), &a.bbox, &mut near_b);
+        let (box_a, box_b) = (a.bbox, b.bbox);
+        let mut near_b = [0u8; LEAF];
+        let tb = self.leaf_tris(b);
+        let lb = self.near(tb, &box_a, &mut near_b);
         if lb.is_empty() {
             return;
         }
-        let mut near_a = [LeafTri::default(); LEAF];
-        for p in self.near(self.leaf_tris(a), &b.bbox, &mut near_a) {
-            self.test_near(p, lb, f);
+        let mut near_a = [0u8; LEAF];
+        let ta = self.leaf_tris(a);
+        for &i in self.near(ta, &box_b, &mut near_a) {
+            self.test_near(&ta[i as usize], tb, lb, f);
         }
     }
 
-    /// [`test`](Self::test) of `p` with each of `qs` (at most 64) whose box is
-    /// within the gap of `p`'s: the boxes are compared first, all of them
-    /// without a branch (a box test is a coin flip for the branch predictor),
-    /// and only the pairs they keep are tested.
+    /// [`test`](Self::test) of `p` with each of `qs[k]`, k in `ids` (at most
+    /// 64), whose box is within the gap of `p`'s: the boxes are compared
+    /// first, all of them without a branch (a box test is a coin flip for
+    /// the branch predictor), and only the pairs they keep are tested.
     #[inline]
-    fn test_near(&self, p: &LeafTri, qs: &[LeafTri], f: &mut Found<V::Item>) {
-        debug_assert!(qs.len() <= 64);
-        // Bit k: q_k's box is within the gap; of those, sharing a vertex.
+    fn test_near(&self, p: &LeafTri, qs: &[LeafTri], ids: &[u8], f: &mut Found<V::Item>) {
+        debug_assert!(ids.len() <= 64);
+        // Bit k: q_ids[k]'s box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u64, 0u64);
-        for (k, q) in qs.iter().enumerate() {
+        for (k, &i) in ids.iter().enumerate() {
+            let q = &qs[i as usize];
             let within = p.bbox.within(&q.bbox, self.gap);
             near |= (within as u64) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
@@ -986,23 +1000,20 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         }
         while near != 0 {
             let k = near.trailing_zeros();
-            self.test(p, &qs[k as usize], adjacent >> k & 1 != 0, f);
+            let q = &qs[ids[k as usize] as usize];
+            self.test(p, q, adjacent >> k & 1 != 0, f);
             near &= near - 1;
         }
     }
 
-    /// The triangles of a leaf whose boxes are within the gap of `other`
-    /// (the other leaf's box): only they can meet one of its triangles.
-    fn near<'b>(
-        &self,
-        tris: &[LeafTri],
-        other: &Aabb,
-        buf: &'b mut [LeafTri; LEAF],
-    ) -> &'b [LeafTri] {
+    /// The places in a leaf of its triangles whose boxes are within the gap
+    /// of `other` (the other leaf's box): only they can meet one of its
+    /// triangles.
+    fn near<'b>(&self, tris: &[LeafTri], other: &Aabb, buf: &'b mut [u8; LEAF]) -> &'b [u8] {
         // Written always, kept when near: no branch on the box test.
         let mut n = 0;
-        for p in tris {
-            buf[n] = *p;
+        for (i, p) in tris.iter().enumerate() {
+            buf[n] = i as u8;
             n += p.bbox.within(other, self.gap) as usize;
         }
         &buf[..n]
