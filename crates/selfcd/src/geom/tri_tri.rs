@@ -487,7 +487,10 @@ mod tests {
             meet += want as u32;
             total += 1;
         }
-        assert!(meet > total / 10 && meet < total * 9 / 10, "{meet} of {total}");
+        assert!(
+            meet > total / 10 && meet < total * 9 / 10,
+            "{meet} of {total}"
+        );
     }
 
     /// The plane clearance never exceeds the distance between the
