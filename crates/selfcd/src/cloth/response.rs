@@ -42,6 +42,7 @@ use crate::geom::ccd::StencilKind;
 use crate::geom::distance::{point_triangle_distance2, segment_segment_distance2};
 use crate::mesh::Mesh;
 use glam::{DMat3, DQuat, DVec3};
+use rayon::prelude::*;
 
 /// Contact thickness and how contacts are handled.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -146,18 +147,28 @@ fn unit_or(v: DVec3, scale: f64, fallback: DVec3) -> DVec3 {
 
 /// Turns the detector's proximity contacts at positions `x` into [`Contact`]s,
 /// vertex-triangle contacts first, each list in the detector's sorted order.
+/// In parallel (each contact is made alone, so the result does not depend
+/// on the threads): a settled pile of 20k triangles has about 119k.
 pub fn gather(mesh: &Mesh, x: &[DVec3], found: &ProximityContacts) -> Vec<Contact> {
     let at = |k: u32| x[k as usize];
-    let vt = found
+    let mut out: Vec<Contact> = found
         .vertex_triangle
-        .iter()
-        .map(|c| vertex_triangle_contact(mesh, at, c.vertex, c.triangle, c.bary, c.distance));
-    let ee = found
-        .edge_edge
-        .iter()
-        .map(|c| edge_edge_contact(mesh, at, c.edges, c.params, c.distance));
-    vt.chain(ee).collect()
+        .par_iter()
+        .with_min_len(GATHER_MIN)
+        .map(|c| vertex_triangle_contact(mesh, at, c.vertex, c.triangle, c.bary, c.distance))
+        .collect();
+    out.par_extend(
+        found
+            .edge_edge
+            .par_iter()
+            .with_min_len(GATHER_MIN)
+            .map(|c| edge_edge_contact(mesh, at, c.edges, c.params, c.distance)),
+    );
+    out
 }
+
+/// Contacts per parallel task of [`gather`].
+const GATHER_MIN: usize = 4096;
 
 /// Vertex `v` against triangle `t` at positions `at`, closest point at barycentrics `w`.
 fn vertex_triangle_contact(
