@@ -171,8 +171,9 @@ const B: [usize; 3] = [3, 4, 5];
 #[inline]
 fn intersect<K: Orientation>(k: &K) -> bool {
     // Both in one plane normal to an axis: all six orientations below are
-    // exactly 0, which their filters cannot show (the exact fallback, four
-    // times the cost of the whole 2-D test); comparisons can.
+    // exactly 0, which their filters cannot show (each would take the exact
+    // fallback); comparisons can, and the pair takes the path those zeros
+    // lead to.
     if on_axis_plane(k, [0, 1, 2, 3, 4, 5]) {
         return edge_tests(k, [0; 3], [0; 3]);
     }
