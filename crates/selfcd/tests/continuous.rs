@@ -373,7 +373,7 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         );
         assert!(s.candidate_builds > 1 && s.candidate_reuses > s.candidate_builds);
         // Each frame's thinnest query starts where the proximity was taken
-        // (for the ten-times-longer step too), the wider ones do not fit in
+        // (for the five-times-longer step too), the wider ones do not fit in
         // its reach.
         assert_eq!(s.continuous_from_proximity, 240 + 24, "{name}");
     }

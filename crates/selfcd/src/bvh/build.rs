@@ -15,7 +15,8 @@
 //! refit follows. The result does not depend on the number of threads.
 
 use super::patch::{
-    leaf_boundary, leaf_contour, merge_contours_with, unpack, Patches, Row, INELIGIBLE, SEVERAL,
+    leaf_boundary, leaf_contour, merge_contours_with, sort_up_to_three, unpack, Patches, Row,
+    INELIGIBLE, SEVERAL,
 };
 use super::Bvh;
 use crate::geom::{Aabb, NormalCone};
@@ -281,17 +282,6 @@ impl Level {
             row.dedup();
         });
         Level { nodes, adjacency }
-    }
-}
-
-/// Sorts a list of at most three items by compare-exchanges.
-#[inline]
-pub(super) fn sort_up_to_three(row: &mut [u32]) {
-    let n = row.len();
-    for (i, j) in [(0, 1), (1, 2), (0, 1)] {
-        if j < n && row[j] < row[i] {
-            row.swap(i, j);
-        }
     }
 }
 

@@ -8,7 +8,6 @@
 //! of packed directed edges `edge_id << 1 | reversed`, with the sorted list of
 //! the patch's boundary vertices and its Euler characteristic.
 
-use super::build::sort_up_to_three;
 use crate::geom::loop2d::{Plane, Seg};
 use crate::mesh::{Csr, Mesh};
 use glam::DVec3;
@@ -63,6 +62,17 @@ impl std::ops::Deref for Row<'_> {
         match self {
             Row::Stored(s) => s,
             Row::Leaf(a) => a,
+        }
+    }
+}
+
+/// Sorts a list of at most three items by compare-exchanges.
+#[inline]
+pub(super) fn sort_up_to_three(row: &mut [u32]) {
+    let n = row.len();
+    for (i, j) in [(0, 1), (1, 2), (0, 1)] {
+        if j < n && row[j] < row[i] {
+            row.swap(i, j);
         }
     }
 }

@@ -18,6 +18,7 @@
 
 use super::exact_int::BigInts;
 use super::predicates::{certainly_one_side, Expansion, Orientation};
+use super::Aabb;
 use glam::DVec3;
 use std::cmp::Ordering;
 
@@ -136,9 +137,7 @@ pub fn segments_intersect(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
 /// comparisons only.)
 #[inline]
 fn boxes_meet(a: &[DVec3], b: &[DVec3]) -> bool {
-    let lo = |p: &[DVec3]| p.iter().fold(p[0], |m, q| m.min(*q));
-    let hi = |p: &[DVec3]| p.iter().fold(p[0], |m, q| m.max(*q));
-    lo(a).cmple(hi(b)).all() && lo(b).cmple(hi(a)).all()
+    Aabb::from_points(a).overlaps(&Aabb::from_points(b))
 }
 
 /// Do points `p` share one coordinate exactly (lie in a plane normal to an
