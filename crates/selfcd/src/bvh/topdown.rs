@@ -22,8 +22,10 @@
 //! certify on its own (spatial halves would hold every layer again).
 //!
 //! ```text
-//! self(N)    = nothing if N's certificate holds; the pairs of a leaf (at most
-//!              LEAF triangles); else self(left), self(right), pair(left, right)
+//! self(N)    = nothing if N's certificate holds (tried from CERT_MIN
+//!              triangles when static); the pairs of a leaf (at most LEAF
+//!              triangles);
+//!              else self(left), self(right), pair(left, right)
 //! pair(A, B) = nothing if the boxes are apart or the union's certificate
 //!              holds (A and B certified and adjacent); the pairs of two leaves;
 //!              else pair over the children of the bigger (of both, in
@@ -66,6 +68,18 @@ use std::sync::OnceLock;
 /// seventeenth landing); 48 cost the folded grid 5-8% more for no further
 /// gain elsewhere.
 const LEAF: usize = 32;
+/// Nodes of fewer triangles split without trying their self-certificate in
+/// a query at one position ([`Shape::At`]): below the leaves' parents it
+/// saves only two leaf tests and a leaf pair, and costs a pass over the
+/// node's contour where it is tried at all (on the garments the cone
+/// refuses most small nodes, and layers hold several pieces). Against
+/// trying every node (one-shot, best of 10, two runs each; BENCHMARKS.md,
+/// twenty-third landing): body 7%, dress 3-6%, multilayer skirt 3-5%,
+/// crumpled grid 1-4% faster, folded grid 1-2% slower, the rest level;
+/// 96 was no better. A swept query tries every node: its boxes hold the
+/// whole step, so a small node's certificate saves more (with this limit
+/// the 20k folded grid's continuous one-shot was 15-22% slower).
+const CERT_MIN: usize = 2 * LEAF;
 /// 0, 1, ..., 63: the places in a leaf.
 const IDS: [u8; 64] = {
     let mut ids = [0u8; 64];
@@ -521,7 +535,13 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         if node.len() <= LEAF {
             return self.leaf_self(node, f);
         }
-        match self.self_certified(node, f) {
+        let tried = matches!(self.shape, Shape::Swept(..)) || node.len() >= CERT_MIN;
+        let cert = if tried {
+            self.self_certified(node, f)
+        } else {
+            SelfCert::Refused
+        };
+        match cert {
             SelfCert::Held => {
                 f.counters.self_culls += 1;
                 return;
