@@ -14,8 +14,9 @@
 //! are the triangles' boxes fitted). Here a node is a range of a permutation
 //! of the triangles, split only when a test needs its children, at the
 //! midpoint of its box along the axis whose plane cuts the fewest triangle
-//! boxes, so children are ranges too and a triangle's membership in a node
-//! is a range test on its position in the permutation. A node whose test
+//! boxes, so children are ranges too. A contour's membership tests read
+//! marks written over the node's range just before (no inverse permutation
+//! is kept up to date at every split). A node whose test
 //! failed only because it holds several edge-connected pieces (layers of
 //! cloth, a garment on a body: Euler characteristic 2 or more) is split
 //! into its largest piece and the rest instead, so that each layer can
@@ -59,7 +60,7 @@ use crate::stats::Counters;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::ops::Range;
-use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::OnceLock;
 
 /// Nodes of at most this many triangles are tested pair by pair (at most
@@ -214,8 +215,8 @@ fn run<V: LeafVisitor>(
 }
 
 /// What a query shares between its tasks. `order` is the permutation whose
-/// ranges are the nodes, `pos` its inverse; a task writes only the entries
-/// of the nodes it owns, so the relaxed atomics never race on a value.
+/// ranges are the nodes; a task writes only the entries of the nodes it
+/// owns, so the relaxed atomics never race on a value.
 struct Query<'a, V> {
     mesh: &'a Mesh,
     shape: Shape<'a>,
@@ -239,7 +240,14 @@ struct Query<'a, V> {
     /// [`TANGLED`] and [`FLIPPED`] bits of each triangle.
     edge_flags: Vec<u8>,
     order: Vec<AtomicU32>,
-    pos: Vec<AtomicU32>,
+    /// `id << 32 | position` of each triangle of the nodes marked `id`
+    /// ([`mark`](Query::mark)) for a membership test: written only for the
+    /// nodes whose contour is computed, not at every split as an inverse
+    /// permutation would be.
+    marks: Vec<AtomicU64>,
+    /// The next mark's id (unique within the query, so a stale mark never
+    /// names a node being tested).
+    next_mark: AtomicU32,
 }
 
 /// A range of the permutation, its box, its children once split, and what
@@ -456,7 +464,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             across,
             edge_flags,
             order: ids(),
-            pos: ids(),
+            marks: (0..n).map(|_| AtomicU64::new(u64::MAX)).collect(),
+            next_mark: AtomicU32::new(0),
         };
         (q, fits.into_iter().fold(Fit::EMPTY, Fit::join))
     }
@@ -732,7 +741,6 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     #[inline]
     fn place(&self, i: u32, t: u32) {
         self.order[i as usize].store(t, Relaxed);
-        self.pos[t as usize].store(i, Relaxed);
     }
 
     /// The self-certificate of `node` (module doc), kept in the node when
@@ -774,6 +782,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         let len = (end - start) as usize;
         const NONE: u32 = u32::MAX;
         let mut label = vec![NONE; len];
+        let id = self.mark(std::slice::from_ref(&node.range));
         let (mut stack, mut largest, mut pieces) = (Vec::new(), (0usize, 0u32), 0u32);
         for first in 0..len {
             if label[first] != NONE {
@@ -786,10 +795,13 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 size += 1;
                 let t = self.tri(start + k as u32);
                 for o in self.across[t as usize] {
-                    let p = self.pos[o as usize].load(Relaxed);
-                    if o != t && (start..end).contains(&p) && label[(p - start) as usize] == NONE {
-                        label[(p - start) as usize] = pieces;
-                        stack.push((p - start) as usize);
+                    let Some(p) = self.marked(id, o).filter(|_| o != t) else {
+                        continue;
+                    };
+                    let p = (p - start) as usize;
+                    if label[p] == NONE {
+                        label[p] = pieces;
+                        stack.push(p);
                     }
                 }
             }
@@ -918,12 +930,13 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn contour_euler(&self, ranges: &[Range<u32>], contour: &mut Vec<[u32; 2]>) -> Option<i64> {
         contour.clear();
         let (mut owned, mut f) = (0i64, 0i64);
-        for piece in self.pieces(ranges, |r| self.contour_piece(ranges, r)) {
+        let id = self.mark(ranges);
+        for piece in self.pieces(ranges, |r| self.contour_piece(id, r)) {
             let (o, n, edges) = piece?;
             (owned, f) = (owned + o, f + n);
             contour.extend(edges);
         }
-        let member = |t: u32| self.member(ranges, t);
+        let member = |t: u32| self.marked(id, t).is_some();
         let vertex_tris = &self.mesh.topology().vertex_tris;
         let outside_owned = starts(contour)
             .into_iter()
@@ -933,22 +946,31 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         Some(owned + outside_owned - e + f)
     }
 
-    /// Is triangle `t` in the union of `ranges`?
-    #[inline]
-    fn member(&self, ranges: &[Range<u32>], t: u32) -> bool {
-        let p = self.pos[t as usize].load(Relaxed);
-        ranges.iter().any(|r| r.contains(&p))
+    /// Marks the triangles at positions `ranges` with a new id (in
+    /// parallel pieces for a large union) and returns it.
+    fn mark(&self, ranges: &[Range<u32>]) -> u32 {
+        let id = self.next_mark.fetch_add(1, Relaxed);
+        self.pieces(ranges, |r| {
+            for i in r {
+                let t = self.tri(i) as usize;
+                self.marks[t].store(u64::from(id) << 32 | u64::from(i), Relaxed);
+            }
+        });
+        id
     }
 
-    /// The contour edges of the triangles at positions `r` of the union of
-    /// `ranges`, with how many triangles and owned vertices they hold;
+    /// The position of triangle `t` when it is in the nodes marked `id`.
+    #[inline]
+    fn marked(&self, id: u32, t: u32) -> Option<u32> {
+        let m = self.marks[t as usize].load(Relaxed);
+        (m >> 32 == u64::from(id)).then_some(m as u32)
+    }
+
+    /// The contour edges of the triangles at positions `r` of the nodes
+    /// marked `id`, with how many triangles and owned vertices they hold;
     /// `None` at an edge in more than two triangles of the mesh or in two of
     /// the union with the same direction.
-    fn contour_piece(
-        &self,
-        ranges: &[Range<u32>],
-        r: Range<u32>,
-    ) -> Option<(i64, i64, Vec<[u32; 2]>)> {
+    fn contour_piece(&self, id: u32, r: Range<u32>) -> Option<(i64, i64, Vec<[u32; 2]>)> {
         let (tris, owned) = (self.mesh.triangles(), &self.mesh.topology().owned);
         let (mut v, mut contour) = (0i64, Vec::new());
         let f = r.len() as i64;
@@ -965,7 +987,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             v += (owned[t as usize] & 7).count_ones() as i64;
             for k in 0..3 {
                 let o = across[k];
-                if o == t || !self.member(ranges, o) {
+                if o == t || self.marked(id, o).is_none() {
                     contour.push([tri[k], tri[(k + 1) % 3]]);
                 } else if flags & (FLIPPED << k) != 0 {
                     return None;
