@@ -393,6 +393,9 @@ struct Scratch {
     /// The contour at the end of a motion.
     segs_end: Vec<Seg>,
     loops: LoopScratch,
+    /// A partition's output, grown as needed and never cleared (every entry
+    /// used is written first).
+    split: Vec<u32>,
 }
 
 impl<'a, V: LeafVisitor> Query<'a, V> {
@@ -566,7 +569,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             SelfCert::Refused => {}
         }
         let parallel = !self.first && node.len() >= PAR_MIN;
-        let [a, b] = self.kids(node);
+        let [a, b] = self.kids(node, &mut f.scratch.split);
         if parallel {
             let ((), other) = rayon::join(
                 || self.self_test(a, f),
@@ -616,7 +619,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             return self.pair_test_parallel(a, b, f);
         }
         let (big, small) = if a.len() >= b.len() { (a, b) } else { (b, a) };
-        let [p, q] = self.kids(big);
+        let [p, q] = self.kids(big, &mut f.scratch.split);
         self.pair_test(p, small, f);
         self.pair_test(q, small, f);
     }
@@ -624,8 +627,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// [`pair_test`](Self::pair_test) of two large nodes by their four
     /// child pairs, two disjoint ones at a time in parallel tasks.
     fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
-        let [a0, a1] = self.kids(a);
-        let [b0, b1] = self.kids(b);
+        let [a0, a1] = self.kids(a, &mut f.scratch.split);
+        let [b0, b1] = self.kids(b, &mut f.scratch.split);
         self.pair_tests_apart(a0, b0, a1, b1, f);
         self.pair_tests_apart(a0, b1, a1, b0, f);
     }
@@ -652,9 +655,9 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The children of `node`, split now if they are not yet.
-    fn kids<'n>(&self, node: &'n mut Node) -> &'n mut [Node; 2] {
+    fn kids<'n>(&self, node: &'n mut Node, buf: &mut Vec<u32>) -> &'n mut [Node; 2] {
         if node.kids.is_none() {
-            let mid = self.partition(node);
+            let mid = self.partition(node, buf);
             node.kids = Some(Box::new([
                 self.node(node.range.start..mid),
                 self.node(mid..node.range.end),
@@ -670,7 +673,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// with a seam through every layer). The middle of the range is taken
     /// instead when the midpoint leaves a side with under 1/16 of it, so the
     /// depth stays logarithmic. Returns where the second part starts.
-    fn partition(&self, node: &Node) -> u32 {
+    fn partition(&self, node: &Node, buf: &mut Vec<u32>) -> u32 {
         let Range { start, end } = node.range.clone();
         let boxes = self.boxes();
         let twice_mid = node.bbox.min + node.bbox.max;
@@ -699,7 +702,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         // and the end it belongs to advances (the side is a coin flip for
         // the branch predictor).
         let n = (end - start) as usize;
-        let mut buf = vec![0u32; n];
+        if buf.len() < n {
+            buf.resize(n, 0);
+        }
+        let buf = &mut buf[..n];
         let (mut a, mut b) = (0usize, n);
         for k in start..end {
             let t = self.tri(k);
@@ -709,7 +715,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             a += low as usize;
             b -= !low as usize;
         }
-        for (k, &t) in (start..end).zip(&buf) {
+        for (k, &t) in (start..end).zip(buf.iter()) {
             self.place(k, t);
         }
         let i = start + a as u32;
