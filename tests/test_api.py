@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import textwrap
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,3 +273,25 @@ def test_threads_detecting_at_once_agree() -> None:
     for t in threads:
         t.join()
     assert len(results) == 2 and np.array_equal(results[0], results[1]) and len(results[0]) > 0
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_calls_from_other_threads_finish_at_any_pool_size(threads: str) -> None:
+    # A call from another thread, made while the importing thread waits
+    # outside the engine, must find a pool thread to run it at any pool size
+    # (a pool that took the importing thread in as one of its workers would
+    # have none left at one thread: BENCHMARKS.md, twenty-third landing).
+    code = """
+        import threading, selfcd
+        V, F = selfcd.scenes.grid(40)
+        P = selfcd.scenes.deform(V, "crumple", amplitude=0.3, wavelength=0.4, seed=5)
+        out = []
+        t = threading.Thread(target=lambda: out.append(selfcd.self_intersections(P, F).tolist()))
+        t.start()
+        t.join()
+        print(len(out[0]) > 0 and out[0] == selfcd.self_intersections(P, F).tolist())
+    """
+    env = {**os.environ, "PYTHONPATH": str(Path(selfcd.__file__).parent.parent), "RAYON_NUM_THREADS": threads}
+    r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, env=env,
+                       timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "True", r.stderr
