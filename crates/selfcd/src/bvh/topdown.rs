@@ -243,7 +243,7 @@ struct Query<'a, V> {
     /// `id << 32 | position` of each triangle of the nodes marked `id`
     /// ([`mark`](Query::mark)) for a membership test: written only for the
     /// nodes whose contour is computed, not at every split as an inverse
-    /// permutation would be.
+    /// permutation would be. Empty when nothing is certified.
     marks: Vec<AtomicU64>,
     /// The next mark's id (unique within the query, so a stale mark never
     /// names a node being tested).
@@ -467,7 +467,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             across,
             edge_flags,
             order: ids(),
-            marks: (0..n).map(|_| AtomicU64::new(u64::MAX)).collect(),
+            marks: (0..m).map(|_| AtomicU64::new(u64::MAX)).collect(),
             next_mark: AtomicU32::new(0),
         };
         (q, fits.into_iter().fold(Fit::EMPTY, Fit::join))
