@@ -1,0 +1,77 @@
+"""Times selfcd's one-shot query from Python called back to back, and called right
+after a warp build+query (as `bench_peers.py` interleaves its runners): the
+difference is what handing each call's job to a pool thread that has gone idle
+costs (BENCHMARKS.md, twenty-third landing). Needs warp-lang (a benchmark extra).
+
+    SELFCD_DATA=../shared/data python3 scripts/bench_handoff.py [--inputs body,dress_on_body] [--repeat 10]
+
+Prints, per input, the median and minimum of each way over `--repeat` calls,
+alternating the two ways twice. Run it with RAYON_NUM_THREADS=1 and =2 to see
+whether the second thread's share survives the gap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import bench_peers  # noqa: E402
+
+import selfcd  # noqa: E402
+from selfcd.weld import UnweldedMeshWarning  # noqa: E402
+
+
+def timed_calls(call: Callable[[], object], before: Callable[[], object] | None, repeat: int) -> list[float]:
+    """Seconds of each of `repeat` calls, each preceded (untimed) by `before` if given."""
+    times = []
+    for _ in range(repeat):
+        if before is not None:
+            before()
+        t0 = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - t0)
+    return times
+
+
+def measure(inp: bench_peers.Input, warp: bench_peers.Warp, repeat: int) -> dict[str, list[float]]:
+    """Seconds of selfcd's one-shot on `inp`, back to back and right after a warp call."""
+    x, f = inp.state, inp.faces
+    for _ in range(3):  # warm-up: warp's kernel compile, selfcd's allocator
+        warp.one_shot(x, f)
+        selfcd.self_intersections(x, f)
+    ways = {"back to back": None, "after a warp call": lambda: warp.one_shot(x, f)}
+    times: dict[str, list[float]] = {k: [] for k in ways}
+    for _ in range(2):
+        for way, before in ways.items():
+            times[way] += timed_calls(lambda: selfcd.self_intersections(x, f), before, repeat)
+    return times
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--inputs", default="body,dress_on_body", help="comma-separated bench_peers inputs")
+    ap.add_argument("--repeat", type=int, default=10, help="calls per measurement (default 10)")
+    args = ap.parse_args()
+    wp, _ = bench_peers.try_import("warp")
+    if wp is None:
+        print("warp-lang is not installed (pip install warp-lang)", file=sys.stderr)
+        return 1
+    warp = bench_peers.Warp(wp)
+    warnings.simplefilter("ignore", UnweldedMeshWarning)
+    for name in [s.strip() for s in args.inputs.split(",") if s.strip()]:
+        times = measure(bench_peers.load_input(name, quick=False), warp, args.repeat)
+        cells = [f"{way}: median {1e3 * statistics.median(t):.2f} ms, min {1e3 * min(t):.2f}"
+                 for way, t in times.items()]
+        print(f"{name}: " + "; ".join(cells))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
