@@ -295,3 +295,43 @@ def test_calls_from_other_threads_finish_at_any_pool_size(threads: str) -> None:
     r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, env=env,
                        timeout=120)
     assert r.returncode == 0 and r.stdout.strip() == "True", r.stderr
+
+
+
+def _pool_cpus(**env: str) -> tuple[list[str], str]:
+    """The CPU list of each `selfcd-<i>` pool thread, and the process's, in a fresh interpreter
+    run with `env` (and neither RAYON_NUM_THREADS nor SELFCD_PIN_THREADS unless given)."""
+    code = """
+        import os, selfcd
+        V, F = selfcd.scenes.grid(20)
+        selfcd.self_intersections(V, F)
+        def allowed(status):
+            return next(l.split()[1] for l in open(status) if l.startswith("Cpus_allowed_list"))
+        rows = []
+        for tid in os.listdir("/proc/self/task"):
+            if open(f"/proc/self/task/{tid}/comm").read().startswith("selfcd-"):
+                rows.append(allowed(f"/proc/self/task/{tid}/status"))
+        print(";".join(rows) + "|" + allowed("/proc/self/status"))
+    """
+    base = {k: v for k, v in os.environ.items() if k not in ("RAYON_NUM_THREADS", "SELFCD_PIN_THREADS")}
+    full = {**base, "PYTHONPATH": str(Path(selfcd.__file__).parent.parent), **env}
+    r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, env=full,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    threads, process = r.stdout.strip().split("|")
+    return threads.split(";"), process
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
+                    reason="pinning is for Linux with two CPUs or more")
+def test_a_full_pool_is_pinned_one_thread_per_cpu_and_a_smaller_one_is_not() -> None:
+    # The pool's threads stay off the caller's core between calls only when
+    # pinned (BENCHMARKS.md, twenty-fifth landing); a pool smaller than the
+    # machine, or one pinning was turned off for, keeps the process's CPUs.
+    cpus = sorted(os.sched_getaffinity(0))
+    threads, _ = _pool_cpus()
+    assert sorted(threads, key=int) == [str(c) for c in cpus]
+    threads, process = _pool_cpus(SELFCD_PIN_THREADS="0")
+    assert len(threads) == len(cpus) and set(threads) == {process}
+    threads, process = _pool_cpus(RAYON_NUM_THREADS="1")
+    assert threads == [process]

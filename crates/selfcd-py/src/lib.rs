@@ -19,6 +19,7 @@ mod detector;
 mod errors;
 mod inspect;
 mod mesh;
+mod pool;
 mod queries;
 mod scene;
 mod stats;
@@ -51,6 +52,7 @@ fn sensor_options() -> Vec<&'static str> {
 /// The extension module.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    pool::init();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(non_conservative_methods, m)?)?;
