@@ -15,6 +15,7 @@
 
 pub mod build;
 pub mod certify;
+mod chunks;
 pub mod kept;
 pub mod order;
 pub mod patch;

@@ -48,6 +48,7 @@
 //! and Euler(S') <= 1; cutting added as many vertices as it made copies, so
 //! Euler(S') = 1 + copies forces no copy: S' = S is a disk.
 
+use super::chunks::Chunks;
 use crate::bvh::patch::have_common;
 use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
@@ -174,7 +175,7 @@ pub fn self_intersections(mesh: &Mesh, positions: &[DVec3]) -> (Vec<[u32; 2]>, C
 pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Option<[u32; 2]> {
     let visitor = Intersect { mesh, positions };
     let found = run(mesh, Shape::At(positions), 0.0, &visitor, true);
-    found.items.first().copied()
+    found.items.into_vec().first().copied()
 }
 
 /// What `visitor` reports on the triangle pairs of `shape` whose boxes are
@@ -191,8 +192,21 @@ pub fn query<V: LeafVisitor>(
     visitor: &V,
 ) -> (Vec<V::Item>, Counters) {
     let found = run(mesh, shape, gap, visitor, false);
-    let counters = found.counters;
-    (found.into_items(), counters)
+    (found.items.into_vec(), found.counters)
+}
+
+/// [`query`]'s items as the tasks left them: lists in an order fixed by the
+/// query (not by the threads), none much longer than 32,768 items, for a
+/// caller that reads them once (a proximity query may find millions;
+/// joining the lists would copy each item again).
+pub fn query_parts<V: LeafVisitor>(
+    mesh: &Mesh,
+    shape: Shape,
+    gap: f64,
+    visitor: &V,
+) -> (Vec<Vec<V::Item>>, Counters) {
+    let found = run(mesh, shape, gap, visitor, false);
+    (found.items.into_chunks(), found.counters)
 }
 
 /// The query from the root, all pairs or (`first`) until one is found.
@@ -340,12 +354,11 @@ impl Fit {
     }
 }
 
-/// A task's findings: what it found itself, and the finished lists of the
-/// tasks it joined (kept apart, so that no item is copied once per level
-/// of joins; a proximity query may find millions).
+/// A task's findings: its items (its own, then the joined tasks', as
+/// chunks: no item is copied once per level of joins or per doubling of one
+/// long list), counters and certificate buffers.
 struct Found<T> {
-    items: Vec<T>,
-    joined: Vec<Vec<T>>,
+    items: Chunks<T>,
     counters: Counters,
     scratch: Scratch,
 }
@@ -353,8 +366,7 @@ struct Found<T> {
 impl<T> Default for Found<T> {
     fn default() -> Self {
         Found {
-            items: Vec::new(),
-            joined: Vec::new(),
+            items: Chunks::default(),
             counters: Counters::default(),
             scratch: Scratch::default(),
         }
@@ -362,26 +374,10 @@ impl<T> Default for Found<T> {
 }
 
 impl<T> Found<T> {
-    /// Takes in a joined task's findings.
+    /// Takes in a joined task's findings, after this task's.
     fn absorb(&mut self, o: Found<T>) {
-        self.joined.push(o.items);
-        self.joined.extend(o.joined);
+        self.items.join(o.items);
         self.counters.add(&o.counters);
-    }
-
-    /// Every item found, in one list (in an order fixed by the joins, not
-    /// by the threads).
-    fn into_items(mut self) -> Vec<T> {
-        if self.joined.is_empty() {
-            return self.items;
-        }
-        let total = self.items.len() + self.joined.iter().map(Vec::len).sum::<usize>();
-        let mut all = Vec::with_capacity(total);
-        all.append(&mut self.items);
-        for mut part in self.joined {
-            all.append(&mut part);
-        }
-        all
     }
 }
 
@@ -1075,7 +1071,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         f.counters.primitive_tests += 1;
         let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
         self.visitor
-            .visit_counted(lo, hi, adjacent, &mut f.items, &mut f.counters);
+            .visit_counted(lo, hi, adjacent, &mut f.items.last, &mut f.counters);
+        f.items.set_aside_when_full();
     }
 }
 

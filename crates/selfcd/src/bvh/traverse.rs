@@ -62,6 +62,7 @@
 //! is fixed, so the output is the same for any number of threads.
 
 use super::certify::{BoxesOnly, ConeCull, ContourCull, Cull};
+use super::chunks::Chunks;
 use super::Bvh;
 use crate::mesh::Mesh;
 use crate::prefetch::prefetch;
@@ -433,55 +434,6 @@ struct Ctx<'a, C, V> {
     unit: f64,
 }
 
-/// A list built by parallel tasks in a fixed order: `done`'s chunks, then
-/// `last`. Joining moves chunks, not elements, so each element is copied
-/// once, into the final vector.
-struct Chunks<T> {
-    last: Vec<T>,
-    done: Vec<Vec<T>>,
-}
-
-impl<T> Chunks<T> {
-    fn new() -> Self {
-        Chunks {
-            last: Vec::new(),
-            done: Vec::new(),
-        }
-    }
-
-    /// This list, then `o`'s.
-    fn join(&mut self, o: Chunks<T>) {
-        self.flush();
-        self.done.extend(o.done);
-        if !o.last.is_empty() {
-            self.done.push(o.last);
-        }
-    }
-
-    fn flush(&mut self) {
-        if !self.last.is_empty() {
-            self.done.push(std::mem::take(&mut self.last));
-        }
-    }
-
-    /// The chunks, in order (none empty).
-    fn into_chunks(mut self) -> Vec<Vec<T>> {
-        self.flush();
-        self.done
-    }
-
-    /// Every element, in order, in one vector.
-    fn into_vec(mut self) -> Vec<T> {
-        self.flush();
-        if self.done.len() == 1 {
-            return self.done.pop().unwrap_or_default();
-        }
-        let mut out = Vec::with_capacity(self.done.iter().map(Vec::len).sum());
-        self.done.into_iter().for_each(|chunk| out.extend(chunk));
-        out
-    }
-}
-
 /// What one task found: its items and front jobs in order, its counters,
 /// the cull's scratch and the descent's stack.
 struct Acc<T, S> {
@@ -495,8 +447,8 @@ struct Acc<T, S> {
 impl<T, S: Default> Acc<T, S> {
     fn new() -> Self {
         Acc {
-            items: Chunks::new(),
-            front: Chunks::new(),
+            items: Chunks::default(),
+            front: Chunks::default(),
             counters: Counters::default(),
             scratch: S::default(),
             stack: Vec::new(),
@@ -725,9 +677,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
         let (items, c) = (&mut acc.items.last, &mut acc.counters);
         if !(measure && self.record) || self.clearances == Clearances::Drop || adjacent {
             self.visitor.visit_counted(lo, hi, adjacent, items, c);
+            acc.items.set_aside_when_full();
             return Clear::None;
         }
-        Clear::Leaves(self.visitor.visit_clear(lo, hi, items, c))
+        let clear = self.visitor.visit_clear(lo, hi, items, c);
+        acc.items.set_aside_when_full();
+        Clear::Leaves(clear)
     }
 
     /// The leaf pairs of small node `n`, each tested as the descent tests

@@ -226,7 +226,7 @@ pub fn proximity_contacts(
     narrow::check_thickness(thickness)?;
     let near = narrow::Proximity::new(mesh, positions, thickness, max_contacts);
     let shape = crate::bvh::topdown::Shape::At(positions);
-    let (items, counters) = crate::bvh::topdown::query(mesh, shape, thickness, &near);
+    let (parts, counters) = crate::bvh::topdown::query_parts(mesh, shape, thickness, &near);
     near.check_output()?;
-    Ok((narrow::collect_proximity(items), counters))
+    Ok((narrow::collect_proximity_parts(parts), counters))
 }

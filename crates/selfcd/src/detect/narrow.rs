@@ -523,15 +523,22 @@ impl ElementPair {
 /// Sorts raw proximity contacts (each element pair is reported once, by its
 /// owners, so the keys are unique and the order does not depend on the threads).
 pub fn collect_proximity(items: Vec<Near>) -> ProximityContacts {
-    let n_vt = items.iter().filter(|x| matches!(x, Near::Vt(_))).count();
-    let (mut vt, mut ee) = (
-        Vec::with_capacity(n_vt),
-        Vec::with_capacity(items.len() - n_vt),
-    );
-    for it in items {
-        match it {
-            Near::Vt(x) => vt.push(x),
-            Near::Ee(x) => ee.push(x),
+    collect_proximity_parts(vec![items])
+}
+
+/// [`collect_proximity`] of the contacts in `parts`, each part read once
+/// and freed as soon as it is.
+pub fn collect_proximity_parts(parts: Vec<Vec<Near>>) -> ProximityContacts {
+    let count = |p: &Vec<Near>| p.iter().filter(|x| matches!(x, Near::Vt(_))).count();
+    let n_vt: usize = parts.par_iter().map(count).sum();
+    let n: usize = parts.iter().map(Vec::len).sum();
+    let (mut vt, mut ee) = (Vec::with_capacity(n_vt), Vec::with_capacity(n - n_vt));
+    for part in parts {
+        for it in part {
+            match it {
+                Near::Vt(x) => vt.push(x),
+                Near::Ee(x) => ee.push(x),
+            }
         }
     }
     let (vertex_triangle, edge_edge) =
