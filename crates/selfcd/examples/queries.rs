@@ -17,12 +17,12 @@
 //! coherent on the wave step and on a step that does not move. Each
 //! coherent row says whether it reused the candidate set. With
 //! `QUERIES_ONESHOT=1` only the proximity one-shot row runs (for profiling).
-use selfcd::bvh::traverse::{self_traverse, TraverseOptions};
+use selfcd::bvh::traverse::{self_traverse_parts, TraverseOptions};
 use selfcd::bvh::{build::build, Bvh};
 use selfcd::detect::coherent::SelfQueries;
 use selfcd::detect::continuous::continuous_impacts;
 use selfcd::detect::hierarchy::BvhDetector;
-use selfcd::detect::narrow::{collect_proximity, Proximity, DEFAULT_MAX_CONTACTS};
+use selfcd::detect::narrow::{collect_proximity_parts, Proximity, DEFAULT_MAX_CONTACTS};
 use selfcd::detect::proximity_contacts;
 use selfcd::{DVec3, FrameStats, Mesh, Method};
 use std::time::Instant;
@@ -82,8 +82,8 @@ fn fresh_proximity(bvh: &mut Bvh, mesh: &Mesh, x: &[DVec3], d: f64) -> usize {
         contour: false,
         gap: d,
     };
-    let (items, _) = self_traverse(bvh, mesh, x, opts, &near);
-    let c = collect_proximity(items);
+    let (parts, _) = self_traverse_parts(bvh, mesh, x, opts, &near);
+    let c = collect_proximity_parts(parts);
     c.vertex_triangle.len() + c.edge_edge.len()
 }
 

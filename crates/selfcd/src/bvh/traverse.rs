@@ -311,16 +311,44 @@ pub fn self_traverse_from<V: LeafVisitor>(
     visitor: &V,
     start: Start,
 ) -> (Vec<V::Item>, Counters, Option<Front>) {
+    let (items, counters, front) = self_run(bvh, mesh, positions, opts, visitor, start);
+    (items.into_vec(), counters, front)
+}
+
+/// [`self_traverse`]'s items as the tasks left them: lists in a fixed
+/// order, none much longer than 32,768 items, for a caller that reads them
+/// once (a proximity query may find millions; joining the lists would copy
+/// each item again).
+pub fn self_traverse_parts<V: LeafVisitor>(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    positions: &[DVec3],
+    opts: TraverseOptions,
+    visitor: &V,
+) -> (Vec<Vec<V::Item>>, Counters) {
+    let (items, counters, _) = self_run(bvh, mesh, positions, opts, visitor, Start::Root);
+    (items.into_chunks(), counters)
+}
+
+/// [`self_traverse_from`] with its items as chunks.
+fn self_run<V: LeafVisitor>(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    positions: &[DVec3],
+    opts: TraverseOptions,
+    visitor: &V,
+    start: Start,
+) -> (Chunks<V::Item>, Counters, Option<Front>) {
     let gap = opts.gap;
     match (opts.cones, opts.contour) {
-        (false, _) => traverse_from(bvh, mesh, gap, &BoxesOnly, visitor, start),
+        (false, _) => run_from(bvh, mesh, gap, &BoxesOnly, visitor, start),
         (true, false) => {
             let cull = ConeCull::new(bvh, mesh);
-            traverse_from(bvh, mesh, gap, &cull, visitor, start)
+            run_from(bvh, mesh, gap, &cull, visitor, start)
         }
         (true, true) => {
             let cull = ContourCull::new(bvh, mesh, positions);
-            traverse_from(bvh, mesh, gap, &cull, visitor, start)
+            run_from(bvh, mesh, gap, &cull, visitor, start)
         }
     }
 }
@@ -350,6 +378,19 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
     visitor: &V,
     start: Start,
 ) -> (Vec<V::Item>, Counters, Option<Front>) {
+    let (items, counters, front) = run_from(bvh, mesh, gap, cull, visitor, start);
+    (items.into_vec(), counters, front)
+}
+
+/// [`traverse_from`] with its items as chunks.
+fn run_from<C: Cull, V: LeafVisitor>(
+    bvh: &Bvh,
+    mesh: &Mesh,
+    gap: f64,
+    cull: &C,
+    visitor: &V,
+    start: Start,
+) -> (Chunks<V::Item>, Counters, Option<Front>) {
     let ctx = Ctx {
         bvh,
         mesh,
@@ -412,7 +453,7 @@ pub fn traverse_from<C: Cull, V: LeafVisitor>(
             })
         }
     };
-    (items.into_vec(), counters, front)
+    (items, counters, front)
 }
 
 struct Ctx<'a, C, V> {

@@ -1,12 +1,13 @@
 //! BVH detectors: `bvh`, `bvh-cones` and `bvh-cones-contour`.
 
-use super::narrow::{collect_proximity, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
+use super::narrow::{collect_proximity_parts, Intersect, Proximity, DEFAULT_MAX_CONTACTS};
 use super::{Detection, Detector, Method};
 use crate::bvh::certify::ContourCull;
 use crate::bvh::kept::{fold_moves, KeptCertificates, Reuse};
 use crate::bvh::refit::ConeFit;
 use crate::bvh::traverse::{
-    self_traverse, self_traverse_from, traverse_from, Clearances, Front, Start, TraverseOptions,
+    self_traverse_from, self_traverse_parts, traverse_from, Clearances, Front, Start,
+    TraverseOptions,
 };
 use crate::bvh::{build::build, Bvh};
 use crate::error::Result;
@@ -316,9 +317,9 @@ impl BvhDetector {
                 contour: false,
                 gap: self.thickness,
             };
-            let (items, c) = self_traverse(&self.bvh, mesh, positions, opts, &near);
+            let (parts, c) = self_traverse_parts(&self.bvh, mesh, positions, opts, &near);
             near.check_output()?;
-            det.proximity = collect_proximity(items);
+            det.proximity = collect_proximity_parts(parts);
             if let Some(map) = &self.triangle_of {
                 det.proximity.map_triangles(map);
             }
