@@ -329,9 +329,17 @@ def test_a_full_pool_is_pinned_one_thread_per_cpu_and_a_smaller_one_is_not() -> 
     # pinned (BENCHMARKS.md, twenty-fifth landing); a pool smaller than the
     # machine, or one pinning was turned off for, keeps the process's CPUs.
     cpus = sorted(os.sched_getaffinity(0))
-    threads, _ = _pool_cpus()
+    full = str(len(cpus))
+    threads, _ = _pool_cpus(RAYON_NUM_THREADS=full)
     assert sorted(threads, key=int) == [str(c) for c in cpus]
-    threads, process = _pool_cpus(SELFCD_PIN_THREADS="0")
+    threads, process = _pool_cpus(RAYON_NUM_THREADS=full, SELFCD_PIN_THREADS="0")
     assert len(threads) == len(cpus) and set(threads) == {process}
     threads, process = _pool_cpus(RAYON_NUM_THREADS="1")
     assert threads == [process]
+    # The default pool: one thread per CPU it may use (pinned), or fewer
+    # where a CPU quota says so (not pinned).
+    threads, process = _pool_cpus()
+    if len(threads) == len(cpus):
+        assert sorted(threads, key=int) == [str(c) for c in cpus]
+    else:
+        assert set(threads) == {process}

@@ -9,9 +9,10 @@
 //! one-shot from Python after 20 ms of busy Python, two threads: 8.9-10.2
 //! ms against 6.2-7.2 back to back; BENCHMARKS.md, twenty-fifth landing).
 //! Pinned threads start every call on their own cores. A smaller pool
-//! (`RAYON_NUM_THREADS`) is not pinned: which cores are free for it is not
-//! known. `SELFCD_PIN_THREADS=0` turns pinning off. Pool threads are named
-//! `selfcd-<i>`.
+//! (`RAYON_NUM_THREADS`, or a CPU quota below the allowed set, which the
+//! default pool size follows) is not pinned: which cores are free for it is
+//! not known. `SELFCD_PIN_THREADS=0` turns pinning off. Pool threads are
+//! named `selfcd-<i>`.
 
 /// Builds rayon's global pool as the module doc says; nothing when a pool
 /// already exists (built by another extension in this process).
@@ -31,7 +32,8 @@ pub fn init() {
 }
 
 /// Rayon's default pool size: `RAYON_NUM_THREADS` when a positive integer,
-/// else the CPUs available to the process.
+/// else the CPUs available to the process (its allowed set, or its CPU
+/// quota where that is lower).
 fn pool_size() -> usize {
     std::env::var("RAYON_NUM_THREADS")
         .ok()
