@@ -8,7 +8,8 @@ twenty-third landing), not test data.
 Each sheet is a `side` x `side` vertex grid over the unit square, z = 0.06 sin(2 pi x)
 (the wave of the topdown module's layered test), lifted by `gap` edge lengths per
 layer. Sheets share no vertex, so the mesh has one piece per layer; no two
-triangles intersect.
+triangles intersect. Written with `selfcd.io.save_obj` (the selfcd package
+installed).
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+
+from selfcd.io import save_obj
 
 
 def stacked_sheets(layers: int, side: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
@@ -45,9 +48,7 @@ def main() -> None:
     if args.layers < 1 or args.side < 2 or not args.gap > 0.0:
         ap.error("need --layers >= 1, --side >= 2 and --gap > 0")
     v, f = stacked_sheets(args.layers, args.side, args.gap)
-    with open(args.out, "w") as out:
-        out.writelines(f"v {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n" for p in v)
-        out.writelines(f"f {t[0] + 1} {t[1] + 1} {t[2] + 1}\n" for t in f)
+    save_obj(args.out, v, f)
     print(f"{args.out}: {len(v)} vertices, {len(f)} triangles in {args.layers} sheets")
 
 

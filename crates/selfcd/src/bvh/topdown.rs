@@ -451,7 +451,6 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             let _ = boxes.set(all);
             fits
         };
-        let ids = || (0..n as u32).map(AtomicU32::new).collect();
         let q = Query {
             mesh,
             shape,
@@ -462,7 +461,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             normals,
             across,
             edge_flags,
-            order: ids(),
+            order: (0..n as u32).map(AtomicU32::new).collect(),
             marks: (0..m).map(|_| AtomicU64::new(u64::MAX)).collect(),
             next_mark: AtomicU32::new(0),
         };
