@@ -64,7 +64,7 @@
 //! positions) and tests the triangle pairs that touch one, by a descent of
 //! the hierarchy refitted to the new sweep.
 
-use super::continuous::{candidate_toi, check_args, element_toi, Impact, Impacts};
+use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
     check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key,
     ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
@@ -374,21 +374,38 @@ impl Cull for MotionCull<'_> {
 }
 
 /// Narrow phase of part (b): the fresh query's `test` on the owned element
-/// pairs of a leaf pair that are not covered.
-struct Uncovered<'a, F> {
+/// pairs of a leaf pair that are not covered, unless `apart` (the fresh
+/// query's triangle-pair test: given the pair and whether it is adjacent)
+/// decides that none of them can be found.
+struct Uncovered<'a, F, A> {
     mesh: &'a Mesh,
     motion: &'a Motion,
     allowance: f64,
     test: F,
+    apart: A,
 }
 
-impl<T: Send, F: Fn(ElementPair) -> Option<T> + Sync> LeafVisitor for Uncovered<'_, F> {
+impl<T, F, A> LeafVisitor for Uncovered<'_, F, A>
+where
+    T: Send,
+    F: Fn(ElementPair) -> Option<T> + Sync,
+    A: Fn([u32; 2], bool) -> bool + Sync,
+{
     type Item = T;
     const SKIP_ADJACENT: bool = false;
 
-    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<T>) {
+    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>) {
+        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
+    }
+
+    /// Counts the pairs `apart` decides in `filter_decisions`.
+    fn visit_counted(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>, c: &mut Counters) {
         if self.motion.node_spread(a, b) < self.allowance {
             return; // every pair of the two triangles is covered
+        }
+        if (self.apart)([a, b], adjacent) {
+            c.filter_decisions += 1;
+            return;
         }
         for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
     }
@@ -734,6 +751,7 @@ impl SelfQueries {
         gap: f64,
         (allowance, kind): (f64, Option<Kind>),
         test: impl Fn(ElementPair) -> Option<T> + Sync,
+        apart: impl Fn([u32; 2], bool) -> bool + Sync,
         s: &mut FrameStats,
     ) -> Vec<T> {
         if self.all_covered(allowance) {
@@ -752,9 +770,11 @@ impl SelfQueries {
             motion: &self.motion,
             allowance,
             test,
+            apart,
         };
         let (found, c) = traverse(&self.bvh, mesh, gap, &cull, &visitor);
         s.node_pairs += c.node_pairs;
+        s.filter_decisions += c.filter_decisions;
         s.proximity_tests += c.primitive_tests;
         s.self_culls += c.self_culls;
         s.pair_culls += c.pair_culls;
@@ -787,7 +807,8 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let mut fresh = self.uncovered(thickness, (allowance, Some(kind)), test, s);
+        let never = |_: [u32; 2], _: bool| false;
+        let mut fresh = self.uncovered(thickness, (allowance, Some(kind)), test, never, s);
         let c = &self.candidates;
         let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
         s.candidates += (vt.len() + ee.len() + skin.len()) as u64;
@@ -894,7 +915,8 @@ impl SelfQueries {
         let test = |p: ElementPair| {
             element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
         };
-        let mut found = self.uncovered(thickness, (allowance, kind), test, s);
+        let apart = |pair, adjacent| stay_apart(&mesh, x0, x1, pair, adjacent, thickness);
+        let mut found = self.uncovered(thickness, (allowance, kind), test, apart, s);
         let c = if kind.is_none() {
             &self.near
         } else {
@@ -965,6 +987,16 @@ impl SelfQueries {
                     return; // tested from b
                 }
                 tests += 1;
+                if stay_apart(
+                    &mesh,
+                    x0,
+                    x1,
+                    [a, b],
+                    mesh.share_vertex(a as usize, b as usize),
+                    thickness,
+                ) {
+                    return;
+                }
                 for_each_owned_pair(&mesh, a.min(b), a.max(b), |p| {
                     let pair = p.canonical();
                     if let Some(toi) = element_toi(&mesh, x0, x1, pair, thickness) {

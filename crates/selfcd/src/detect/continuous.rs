@@ -24,7 +24,7 @@ use crate::bvh::topdown::{self, Shape};
 use crate::bvh::traverse::{traverse, LeafVisitor};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
-use crate::geom::ccd::time_of_impact;
+use crate::geom::ccd::{time_of_impact, triangles_stay_apart};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -96,7 +96,30 @@ impl LeafVisitor for Continuous<'_> {
     type Item = Impact;
     const SKIP_ADJACENT: bool = false;
 
-    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Impact>) {
+    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Impact>) {
+        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
+    }
+
+    /// Counts the triangle pairs [`stay_apart`] decides in `filter_decisions`.
+    fn visit_counted(
+        &self,
+        a: u32,
+        b: u32,
+        adjacent: bool,
+        out: &mut Vec<Impact>,
+        c: &mut Counters,
+    ) {
+        if stay_apart(
+            self.mesh,
+            self.x0,
+            self.x1,
+            [a, b],
+            adjacent,
+            self.thickness,
+        ) {
+            c.filter_decisions += 1;
+            return;
+        }
         for_each_owned_pair(self.mesh, a, b, |pair| {
             let pair = pair.canonical();
             if let Some(toi) = element_toi(self.mesh, self.x0, self.x1, pair, self.thickness) {
@@ -104,6 +127,24 @@ impl LeafVisitor for Continuous<'_> {
             }
         });
     }
+}
+
+/// True when triangles `a` and `b` of `mesh` (sharing a vertex when
+/// `adjacent`: then never) stay apart over the motion `x0 -> x1` by the
+/// margin of [`triangles_stay_apart`], so that no element pair of theirs has
+/// a time of impact: the continuous queries skip their element tests, and
+/// their answers are the same with or without this test.
+#[inline]
+pub(crate) fn stay_apart(
+    mesh: &Mesh,
+    x0: &[DVec3],
+    x1: &[DVec3],
+    [a, b]: [u32; 2],
+    adjacent: bool,
+    thickness: f64,
+) -> bool {
+    let at = |t: u32| [mesh.corners(x0, t as usize), mesh.corners(x1, t as usize)];
+    !adjacent && triangles_stay_apart(at(a), at(b), thickness)
 }
 
 fn key(i: &Impact) -> (u32, u32) {

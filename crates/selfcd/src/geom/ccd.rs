@@ -12,7 +12,9 @@
 //! `RESOLUTION` times the initial one, so it reports only pairs that do come
 //! within `thickness` (up to that resolution).
 
-use super::distance::{hulls_apart, point_triangle_distance2, segment_segment_distance2};
+use super::distance::{
+    hulls_apart, point_triangle_distance2, segment_segment_distance2, APART_SLACK,
+};
 use super::predicates::{exponent, mul_pow2};
 use super::tri_tri::{point_in_triangle, segments_intersect};
 use glam::DVec3;
@@ -94,6 +96,64 @@ fn swept_sides(pair: StencilKind, x0: &[DVec3; 4], x1: &[DVec3; 4]) -> [(DVec3, 
 fn swept_apart([(la, ha), (lb, hb)]: [(DVec3, DVec3); 2], thickness: f64) -> bool {
     let diag = (ha.max(hb) - la.min(lb)).length();
     hulls_apart(&[la, ha], &[lb, hb], thickness + 2.0 * RESOLUTION * diag)
+}
+
+/// Margin of [`triangles_stay_apart`], in units of the pair's swept extent:
+/// far above the rounding of its projections, and large enough that
+/// [`time_of_impact`] of any stencil of the pair reaches the end of the step
+/// well within `MAX_ITERATIONS` (each advance moves t by at least
+/// `STEP AXIS_MARGIN / 2`: about 22,000 advances at most).
+const AXIS_MARGIN: f64 = 1e-4;
+
+/// True when triangles `a` and `b`, each vertex moving linearly from
+/// `a[0]`, `b[0]` to `a[1]`, `b[1]` over t in [0, 1], stay farther apart than
+/// `thickness` for the whole motion, by a margin: then [`time_of_impact`]
+/// finds no impact for any vertex-triangle or edge-edge stencil of their
+/// elements, so a caller may skip the pair's element tests without changing
+/// any answer.
+///
+/// Separating axis, fixed over the motion: `u`, the direction from `a`'s
+/// centroid to `b`'s at the start. Each vertex's projection on `u` is linear
+/// in t, so the lowest of `b`'s (a minimum of linear functions) minus the
+/// highest of `a`'s (a maximum) is concave in t and smallest at t = 0 or
+/// t = 1: when it exceeds the limit at both ends, every point of `a(t)` is
+/// that far from every point of `b(t)` at every t. The limit is `thickness`
+/// plus [`AXIS_MARGIN`] times the extent `D` of the pair's swept box (the
+/// sum of its sides, at least its diagonal) plus `APART_SLACK` times its
+/// largest coordinate magnitude (the slack the element culls keep above the
+/// distance functions' rounding). Every stencil's own gap then stays above
+/// `AXIS_MARGIN D`, far above `RESOLUTION` times its initial gap (at most
+/// `D`), and its relative speed is at most `2 D`, so the advance reaches
+/// t = 1 in at most `2 / (STEP AXIS_MARGIN)` steps. Projections are taken
+/// from `a`'s centroid, inside the box, so they round to a few ulps of `D`.
+///
+/// Why this axis: a sheet sliding along itself (a falling flap) sweeps its
+/// triangles' boxes over their neighbours ahead, and they move too much
+/// relative to each other for the coherent queries' spread test; the axis
+/// between their centroids separates them. Coordinates whose sums overflow
+/// make the gaps NaN, and the pair is kept.
+pub fn triangles_stay_apart(a: [[DVec3; 3]; 2], b: [[DVec3; 3]; 2], thickness: f64) -> bool {
+    let centroid = |p: &[DVec3; 3]| (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+    let o = centroid(&a[0]);
+    let d = centroid(&b[0]) - o;
+    // Divided by its largest component first, so no square over- or
+    // underflows: the same decision at every scale (by powers of two).
+    let u = (d / d.abs().max_element()).normalize_or_zero();
+    let range = |p: &[DVec3; 3]| {
+        let d = p.map(|x| u.dot(x - o));
+        (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]))
+    };
+    let gap = |k: usize| range(&b[k]).0 - range(&a[k]).1;
+    let (lo, hi) = a.iter().chain(&b).flatten().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), x| (lo.min(*x), hi.max(*x)),
+    );
+    // The sum of the box's sides: at least its diagonal, and never squared.
+    let extent = (hi - lo).element_sum();
+    let magnitude = lo.abs().max(hi.abs()).max_element();
+    let limit = thickness + AXIS_MARGIN * extent + APART_SLACK * magnitude;
+    // Written so that a NaN keeps the pair.
+    gap(0) > limit && gap(1) > limit
 }
 
 /// True when the stencil's four points are never coplanar during the motion,
@@ -473,6 +533,107 @@ mod tests {
         );
         // Not moving: no impact.
         assert_eq!(time_of_impact(StencilKind::EdgeEdge, x0, x0, 0.1), None);
+    }
+
+    /// Every vertex-triangle and edge-edge stencil of triangles `a`, `b`.
+    fn stencils(a: [DVec3; 3], b: [DVec3; 3]) -> Vec<(StencilKind, [DVec3; 4])> {
+        let mut out = Vec::new();
+        for (p, q) in [(a, b), (b, a)] {
+            for x in p {
+                out.push((StencilKind::VertexTriangle, [x, q[0], q[1], q[2]]));
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                let (ea, eb) = ([a[i], a[(i + 1) % 3]], [b[j], b[(j + 1) % 3]]);
+                out.push((StencilKind::EdgeEdge, [ea[0], ea[1], eb[0], eb[1]]));
+            }
+        }
+        out
+    }
+
+    /// Triangle pairs the separating axis keeps apart have no impact in any
+    /// of their stencils (so skipping them changes no answer), on random
+    /// pairs near each other, many sliding along a shared plane by several
+    /// sizes a step; and the decision is the same at every scale.
+    #[test]
+    fn triangles_kept_apart_have_no_impacts() {
+        let mut rng = SplitMix::new(29);
+        let (mut apart, mut sliding_apart) = (0, 0);
+        for k in 0..3000 {
+            let sliding = k % 2 == 0;
+            let flat = |p: DVec3| {
+                if sliding {
+                    DVec3::new(p.x, p.y, 0.0)
+                } else {
+                    p
+                }
+            };
+            let a0: [DVec3; 3] = std::array::from_fn(|_| flat(rng.direction()) * 0.5);
+            let offset = flat(rng.direction()) * (2.5 * rng.unit());
+            let b0 = std::array::from_fn(|i| flat(rng.direction()) * 0.5 + offset);
+            // A common motion of up to 8 sizes, and each vertex's own.
+            let common = flat(rng.direction()) * (8.0 * rng.unit());
+            let mut moved =
+                |x: [DVec3; 3]| x.map(|p| p + common + rng.direction() * 0.3 * rng.unit());
+            let (a1, b1) = (moved(a0), moved(b0));
+            let thickness = 0.1 * rng.unit();
+            let kept_apart = triangles_stay_apart([a0, a1], [b0, b1], thickness);
+            for s in [-900, -300, 300, 900].map(|e| 2f64.powi(e)) {
+                let scaled = |x: [DVec3; 3]| x.map(|p| p * s);
+                let at = triangles_stay_apart(
+                    [scaled(a0), scaled(a1)],
+                    [scaled(b0), scaled(b1)],
+                    thickness * s,
+                );
+                assert_eq!(at, kept_apart, "case {k} at scale {s:e}");
+            }
+            if !kept_apart {
+                continue;
+            }
+            apart += 1;
+            sliding_apart += sliding as u32;
+            let starts = stencils(a0, b0);
+            for ((kind, x0), (_, x1)) in starts.into_iter().zip(stencils(a1, b1)) {
+                let toi = time_of_impact(kind, x0, x1, thickness);
+                assert_eq!(toi, None, "case {k}: {kind:?} {x0:?} -> {x1:?}");
+            }
+        }
+        assert!(
+            apart > 300 && sliding_apart > 100,
+            "{apart} {sliding_apart}"
+        );
+    }
+
+    #[test]
+    fn triangles_that_meet_or_touch_are_never_kept_apart() {
+        let a = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        // Sharing a vertex, and a copy passing through `a` during the step.
+        let b = [a[1], v(2.0, 0.0, 0.0), v(1.0, 1.0, 0.0)];
+        assert!(!triangles_stay_apart([a, a], [b, b], 0.0));
+        let above = a.map(|p| p + v(0.2, 0.2, 1.0));
+        let below = a.map(|p| p + v(0.2, 0.2, -1.0));
+        assert!(!triangles_stay_apart([a, a], [above, below], 0.0));
+        // Side by side, sliding together by ten sizes: apart, though the
+        // swept boxes overlap; within the thickness: kept.
+        let side = a.map(|p| p + v(2.0, 0.0, 0.0));
+        let slide = |x: [DVec3; 3]| x.map(|p| p + v(10.0, 0.0, 0.0));
+        assert!(triangles_stay_apart(
+            [a, slide(a)],
+            [side, slide(side)],
+            0.5
+        ));
+        assert!(!triangles_stay_apart(
+            [a, slide(a)],
+            [side, slide(side)],
+            1.0
+        ));
+        // Degenerate and non-finite input: kept.
+        let point = [v(5.0, 0.0, 0.0); 3];
+        assert!(triangles_stay_apart([a, a], [point, point], 0.1));
+        assert!(!triangles_stay_apart([a, a], [a, a], 0.1));
+        let huge = a.map(|p| p * f64::MAX);
+        assert!(!triangles_stay_apart([huge, huge], [side, side], 0.1));
     }
 
     #[test]

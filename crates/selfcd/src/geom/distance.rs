@@ -15,7 +15,7 @@ use glam::DVec3;
 
 /// Relative slack of [`hulls_apart`], in units of the coordinates' magnitude:
 /// far above the rounding of the distance functions here.
-const APART_SLACK: f64 = 1e-9;
+pub(crate) const APART_SLACK: f64 = 1e-9;
 
 /// True when the convex hulls of `a` and `b` are certainly farther apart than
 /// `gap`: their boxes are apart ([`Aabb::within`] fails) by more than `gap`
