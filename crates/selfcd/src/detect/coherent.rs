@@ -73,6 +73,7 @@ use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::{Error, Result};
+use crate::geom::ccd::boxes_stay_apart;
 use crate::geom::distance::HullCull;
 use crate::geom::{magnitude, Aabb};
 use crate::mesh::Mesh;
@@ -351,10 +352,45 @@ impl Motion {
 }
 
 /// The traversal cull of part (b): a node or node pair whose displacement
-/// boxes spread less than `allowance` holds only covered pairs.
+/// boxes spread less than `allowance` holds only covered pairs; with
+/// `start`, a continuous query's node pair that a separating axis keeps
+/// apart over the step holds no impact either.
 struct MotionCull<'a> {
     motion: &'a Motion,
     allowance: f64,
+    start: Option<StartBoxes<'a>>,
+}
+
+/// What a continuous query's node pair test reads: the nodes' boxes at the
+/// start of the step `x0 -> x1` (the motion's reference: its one end's
+/// displacement boxes then hold `x1 - x0`) and the thickness.
+#[derive(Clone, Copy)]
+struct StartBoxes<'a> {
+    boxes: &'a [Aabb],
+    thickness: f64,
+}
+
+impl MotionCull<'_> {
+    /// Do nodes `a` and `b` stay apart over the step ([`boxes_stay_apart`]
+    /// of their start boxes and those moved by their displacement boxes)?
+    #[inline]
+    fn apart(&self, a: u32, b: u32) -> bool {
+        let Some(StartBoxes { boxes, thickness }) = self.start else {
+            return false;
+        };
+        let m = self.motion;
+        let moved = |n: u32| {
+            let (s, d) = (&boxes[n as usize], &m.node[n as usize]);
+            [
+                *s,
+                Aabb {
+                    min: s.min + d.min,
+                    max: s.max + d.max,
+                },
+            ]
+        };
+        boxes_stay_apart(moved(a), moved(b), thickness)
+    }
 }
 
 impl Cull for MotionCull<'_> {
@@ -367,7 +403,7 @@ impl Cull for MotionCull<'_> {
     }
     #[inline]
     fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
-        let culled = self.motion.node_spread(a, b) < self.allowance;
+        let culled = self.motion.node_spread(a, b) < self.allowance || self.apart(a, b);
         c.pair_culls += culled as u64;
         culled
     }
@@ -549,6 +585,9 @@ pub struct SelfQueries {
     uncovered_tests: Vec<(Kind, u64)>,
     /// The last continuous query, for repeats.
     sweep: Sweep,
+    /// The node boxes at a continuous query's start, when the hierarchy was
+    /// fitted there (buffer kept across queries).
+    start_boxes: Vec<Aabb>,
     skin: f64,
     max_contacts: usize,
 }
@@ -584,6 +623,7 @@ impl SelfQueries {
             motion: Motion::default(),
             uncovered_tests: Vec::new(),
             sweep: Sweep::default(),
+            start_boxes: Vec::new(),
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
         })
@@ -752,6 +792,7 @@ impl SelfQueries {
         (allowance, kind): (f64, Option<Kind>),
         test: impl Fn(ElementPair) -> Option<T> + Sync,
         apart: impl Fn([u32; 2], bool) -> bool + Sync,
+        start: Option<StartBoxes>,
         s: &mut FrameStats,
     ) -> Vec<T> {
         if self.all_covered(allowance) {
@@ -764,6 +805,7 @@ impl SelfQueries {
         let cull = MotionCull {
             motion: &self.motion,
             allowance,
+            start,
         };
         let visitor = Uncovered {
             mesh,
@@ -808,7 +850,7 @@ impl SelfQueries {
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
         let never = |_: [u32; 2], _: bool| false;
-        let mut fresh = self.uncovered(thickness, (allowance, Some(kind)), test, never, s);
+        let mut fresh = self.uncovered(thickness, (allowance, Some(kind)), test, never, None, s);
         let c = &self.candidates;
         let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
         s.candidates += (vt.len() + ee.len() + skin.len()) as u64;
@@ -906,7 +948,14 @@ impl SelfQueries {
             }
         };
         let t0 = Instant::now();
+        // From the proximity answer the motion's reference is `x0`: the
+        // node pair test reads the boxes there, if the hierarchy holds them.
+        let mut start_boxes = std::mem::take(&mut self.start_boxes);
+        start_boxes.clear();
         if !self.all_covered(allowance) {
+            if kind.is_none() && self.fit.fitted && self.fit.at.as_slice() == x0 {
+                start_boxes.extend_from_slice(&self.bvh.boxes);
+            }
             self.bvh.refit_swept(&mesh, x0, x1);
             self.fit.fitted = false;
         }
@@ -916,7 +965,12 @@ impl SelfQueries {
             element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
         };
         let apart = |pair, adjacent| stay_apart(&mesh, x0, x1, pair, adjacent, thickness);
-        let mut found = self.uncovered(thickness, (allowance, kind), test, apart, s);
+        let start = (!start_boxes.is_empty()).then_some(StartBoxes {
+            boxes: &start_boxes,
+            thickness,
+        });
+        let mut found = self.uncovered(thickness, (allowance, kind), test, apart, start, s);
+        self.start_boxes = start_boxes;
         let c = if kind.is_none() {
             &self.near
         } else {

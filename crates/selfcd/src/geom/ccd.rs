@@ -17,6 +17,7 @@ use super::distance::{
 };
 use super::predicates::{exponent, mul_pow2};
 use super::tri_tri::{point_in_triangle, segments_intersect};
+use super::Aabb;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -135,25 +136,55 @@ const AXIS_MARGIN: f64 = 1e-4;
 pub fn triangles_stay_apart(a: [[DVec3; 3]; 2], b: [[DVec3; 3]; 2], thickness: f64) -> bool {
     let centroid = |p: &[DVec3; 3]| (p[0] + p[1] + p[2]) * (1.0 / 3.0);
     let o = centroid(&a[0]);
-    let d = centroid(&b[0]) - o;
-    // Divided by its largest component first, so no square over- or
-    // underflows: the same decision at every scale (by powers of two).
-    let u = (d / d.abs().max_element()).normalize_or_zero();
+    let u = axis(centroid(&b[0]) - o);
     let range = |p: &[DVec3; 3]| {
         let d = p.map(|x| u.dot(x - o));
         (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]))
     };
     let gap = |k: usize| range(&b[k]).0 - range(&a[k]).1;
-    let (lo, hi) = a.iter().chain(&b).flatten().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), x| (lo.min(*x), hi.max(*x)),
-    );
-    // The sum of the box's sides: at least its diagonal, and never squared.
-    let extent = (hi - lo).element_sum();
-    let magnitude = lo.abs().max(hi.abs()).max_element();
-    let limit = thickness + AXIS_MARGIN * extent + APART_SLACK * magnitude;
+    let all = Aabb::from_points(a.as_flattened()).union(&Aabb::from_points(b.as_flattened()));
+    let limit = axis_limit(&all, thickness);
     // Written so that a NaN keeps the pair.
     gap(0) > limit && gap(1) > limit
+}
+
+/// [`triangles_stay_apart`] for two sets of moving points known only by
+/// their boxes: `a[0]`, `b[0]` at the start and `a[1]`, `b[1]` holding the
+/// end positions (the concavity argument holds for any point sets; a box's
+/// projection on the axis is its centre's plus or minus its half sides
+/// weighed by the axis). The axis joins the start boxes' centres. A coarser
+/// test for a pair of hierarchy nodes: where it holds, no stencil of a
+/// triangle of one with a triangle of the other has an impact (the same
+/// argument, the margin taken over a box holding every such stencil's).
+pub fn boxes_stay_apart(a: [Aabb; 2], b: [Aabb; 2], thickness: f64) -> bool {
+    let o = a[0].center();
+    let u = axis(b[0].center() - o);
+    let range = |x: &Aabb| {
+        let (c, r) = (u.dot(x.center() - o), u.abs().dot(x.max - x.center()));
+        (c - r, c + r)
+    };
+    let gap = |k: usize| range(&b[k]).0 - range(&a[k]).1;
+    let all = a[0].union(&a[1]).union(&b[0]).union(&b[1]);
+    let limit = axis_limit(&all, thickness);
+    gap(0) > limit && gap(1) > limit
+}
+
+/// `d` as a unit vector, divided by its largest component first so that no
+/// square over- or underflows (the same decision at every scale, by powers
+/// of two); zero or NaN where it has no direction.
+#[inline]
+fn axis(d: DVec3) -> DVec3 {
+    (d / d.abs().max_element()).normalize_or_zero()
+}
+
+/// The limit of the separating-axis tests for points within `all`: the
+/// thickness, [`AXIS_MARGIN`] times the sum of the box's sides (at least
+/// its diagonal, and never squared) and `APART_SLACK` times its largest
+/// coordinate magnitude.
+#[inline]
+fn axis_limit(all: &Aabb, thickness: f64) -> f64 {
+    let magnitude = all.min.abs().max(all.max.abs()).max_element();
+    thickness + AXIS_MARGIN * (all.max - all.min).element_sum() + APART_SLACK * magnitude
 }
 
 /// True when the stencil's four points are never coplanar during the motion,
@@ -603,6 +634,56 @@ mod tests {
             apart > 300 && sliding_apart > 100,
             "{apart} {sliding_apart}"
         );
+    }
+
+    /// Sets of moving triangles whose boxes the axis keeps apart have no
+    /// impact between them; the start and end boxes of sets side by side
+    /// on a sliding sheet are kept apart though their swept boxes overlap.
+    #[test]
+    fn node_boxes_kept_apart_have_no_impacts() {
+        let mut rng = SplitMix::new(31);
+        let mut apart = 0;
+        for k in 0..1500 {
+            let offset = rng.direction() * (3.0 * rng.unit());
+            let common = rng.direction() * (6.0 * rng.unit());
+            let mut set = |at: DVec3| -> Vec<[[DVec3; 3]; 2]> {
+                (0..3)
+                    .map(|_| {
+                        let t0: [DVec3; 3] = std::array::from_fn(|_| at + rng.direction() * 0.6);
+                        let own = rng.direction() * 0.4 * rng.unit();
+                        [t0, t0.map(|p| p + common + own + rng.direction() * 0.05)]
+                    })
+                    .collect()
+            };
+            let (a, b) = (set(DVec3::ZERO), set(offset));
+            let boxes = |s: &[[[DVec3; 3]; 2]], end: usize| {
+                s.iter()
+                    .fold(Aabb::EMPTY, |bx, t| bx.union(&Aabb::from_points(&t[end])))
+            };
+            let thickness = 0.1 * rng.unit();
+            let (ba, bb) = ([boxes(&a, 0), boxes(&a, 1)], [boxes(&b, 0), boxes(&b, 1)]);
+            if !boxes_stay_apart(ba, bb, thickness) {
+                continue;
+            }
+            apart += 1;
+            for (ta, tb) in a.iter().flat_map(|ta| b.iter().map(move |tb| (ta, tb))) {
+                let pairs = stencils(ta[0], tb[0])
+                    .into_iter()
+                    .zip(stencils(ta[1], tb[1]));
+                for ((kind, x0), (_, x1)) in pairs {
+                    assert_eq!(time_of_impact(kind, x0, x1, thickness), None, "case {k}");
+                }
+            }
+        }
+        assert!(apart > 200, "{apart}");
+        let unit = Aabb::from_points(&[v(0.0, 0.0, 0.0), v(1.0, 1.0, 0.0)]);
+        let shift = |b: Aabb, d: DVec3| Aabb::from_points(&[b.min + d, b.max + d]);
+        let side = shift(unit, v(2.0, 0.0, 0.0));
+        let slide = v(10.0, 0.0, 0.0);
+        let (a, b) = ([unit, shift(unit, slide)], [side, shift(side, slide)]);
+        assert!(a[0].union(&a[1]).within(&b[0].union(&b[1]), 0.0));
+        assert!(boxes_stay_apart(a, b, 0.5));
+        assert!(!boxes_stay_apart(a, b, 1.0));
     }
 
     #[test]
