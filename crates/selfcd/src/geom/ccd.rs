@@ -602,7 +602,7 @@ mod tests {
             };
             let a0: [DVec3; 3] = std::array::from_fn(|_| flat(rng.direction()) * 0.5);
             let offset = flat(rng.direction()) * (2.5 * rng.unit());
-            let b0 = std::array::from_fn(|i| flat(rng.direction()) * 0.5 + offset);
+            let b0 = std::array::from_fn(|_| flat(rng.direction()) * 0.5 + offset);
             // A common motion of up to 8 sizes, and each vertex's own.
             let common = flat(rng.direction()) * (8.0 * rng.unit());
             let mut moved =
