@@ -131,7 +131,7 @@ fn run() -> Result<(), String> {
         ms(proximity),
         ms(continuous),
         ccd_rounds as f64 / s,
-        ms(detect - proximity - continuous)
+        ms((detect - proximity - continuous).max(0.0))
     );
     println!(
         "mean CG iterations {:.1}, contacts/step {:.1}, vertices in impact zones {in_zones}, correction detections/step {:.2} (steps proved clear by the continuous stage {proved}), intersections left {intersections}",

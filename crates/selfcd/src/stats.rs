@@ -42,7 +42,9 @@ pub struct FrameStats {
     /// Triangle-triangle tests run: the paper's polygon-polygon checks.
     pub primitive_tests: u64,
     /// Of those, the pairs the floating-point filter proved apart without the
-    /// exact predicates (the rest ran the exact test).
+    /// exact predicates (the rest ran the exact test); in continuous
+    /// queries, the triangle pairs a separating axis kept apart over the
+    /// step without element tests.
     pub filter_decisions: u64,
     /// Leaf pairs given the proximity test (thickness > 0; its node pairs are in `node_pairs`).
     pub proximity_tests: u64,
