@@ -8,7 +8,10 @@
 //! swept certificate ([`SweptContourCull`]) skips patches that provably stay
 //! free of contact: a sheet that bends little costs about a swept refit.
 //! With a thickness, elements of one patch may legitimately come that close,
-//! so every overlapping box pair is descended. Narrow phase: additive CCD
+//! so every overlapping box pair is descended. Narrow phase: a triangle pair
+//! that a separating axis keeps apart over the step, with a margin
+//! ([`crate::geom::ccd::triangles_stay_apart`]: a sheet sliding along
+//! itself), is skipped, which changes no answer; else additive CCD
 //! ([`crate::geom::ccd`]) on each element pair, once per pair (owners).
 //! No false negatives: every pair that comes within `thickness` during the step is
 //! reported, at a time no later than when it does. (A certified patch can hold

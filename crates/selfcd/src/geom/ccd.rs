@@ -119,7 +119,7 @@ const AXIS_MARGIN: f64 = 1e-4;
 /// highest of `a`'s (a maximum) is concave in t and smallest at t = 0 or
 /// t = 1: when it exceeds the limit at both ends, every point of `a(t)` is
 /// that far from every point of `b(t)` at every t. The limit is `thickness`
-/// plus [`AXIS_MARGIN`] times the extent `D` of the pair's swept box (the
+/// plus `AXIS_MARGIN` (1e-4) times the extent `D` of the pair's swept box (the
 /// sum of its sides, at least its diagonal) plus `APART_SLACK` times its
 /// largest coordinate magnitude (the slack the element culls keep above the
 /// distance functions' rounding). Every stencil's own gap then stays above
