@@ -16,7 +16,9 @@
 //! continuous fresh (kept hierarchy), one-shot (`continuous_impacts`) and
 //! coherent on the wave step and on a step that does not move. Each
 //! coherent row says whether it reused the candidate set. With
-//! `QUERIES_ONESHOT=1` only the proximity one-shot row runs (for profiling).
+//! `QUERIES_ONESHOT=1` only the proximity one-shot row runs, with
+//! `QUERIES_CONTINUOUS=1` only the continuous one-shot on the wave step
+//! (both for profiling).
 use selfcd::bvh::traverse::{self_traverse_parts, TraverseOptions};
 use selfcd::bvh::{build::build, Bvh};
 use selfcd::detect::coherent::SelfQueries;
@@ -103,6 +105,17 @@ fn main() {
         rayon::current_num_threads()
     );
 
+    if std::env::var_os("QUERIES_CONTINUOUS").is_some() {
+        let (ms, (n, c)) = best(reps, || {
+            let (i, c) = continuous_impacts(&mesh, &x, &step, 0.0).unwrap();
+            (i.vertex_triangle.len() + i.edge_edge.len(), c)
+        });
+        println!(
+            "continuous one-shot, wave step   {ms:9.3} ms  {n} pairs ({} certificates tried, {} failed, {} node pairs, {} triangle pairs, {} decided by the filters)",
+            c.contour_tests, c.contour_fails, c.node_pairs, c.primitive_tests, c.filter_decisions
+        );
+        return;
+    }
     let only_one_shot = std::env::var_os("QUERIES_ONESHOT").is_some();
     let mut bvh = build(&mesh);
     if !only_one_shot {

@@ -27,7 +27,7 @@ use crate::bvh::topdown::{self, Shape};
 use crate::bvh::traverse::{traverse, LeafVisitor};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
-use crate::geom::ccd::{time_of_impact, triangles_stay_apart};
+use crate::geom::ccd::{fans_stay_apart, time_of_impact, triangles_stay_apart};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::stats::Counters;
@@ -133,10 +133,12 @@ impl LeafVisitor for Continuous<'_> {
 }
 
 /// True when triangles `a` and `b` of `mesh` (sharing a vertex when
-/// `adjacent`: then never) stay apart over the motion `x0 -> x1` by the
-/// margin of [`triangles_stay_apart`], so that no element pair of theirs has
-/// a time of impact: the continuous queries skip their element tests, and
-/// their answers are the same with or without this test.
+/// `adjacent`) stay apart over the motion `x0 -> x1` by the margin of
+/// [`triangles_stay_apart`] (or, sharing exactly one vertex, of
+/// [`fans_stay_apart`]; sharing an edge: never), so that no element pair of
+/// theirs that shares no vertex has a time of impact: the continuous
+/// queries skip their element tests, and their answers are the same with or
+/// without this test.
 #[inline]
 pub(crate) fn stay_apart(
     mesh: &Mesh,
@@ -146,8 +148,37 @@ pub(crate) fn stay_apart(
     adjacent: bool,
     thickness: f64,
 ) -> bool {
-    let at = |t: u32| [mesh.corners(x0, t as usize), mesh.corners(x1, t as usize)];
-    !adjacent && triangles_stay_apart(at(a), at(b), thickness)
+    // Triangle t's corners at both ends, from its corner `first` on.
+    let at = |t: u32, first: usize| {
+        let v = mesh.triangles()[t as usize];
+        let (i, j, k) = (v[first], v[(first + 1) % 3], v[(first + 2) % 3]);
+        let c = |x: &[DVec3]| [x[i as usize], x[j as usize], x[k as usize]];
+        [c(x0), c(x1)]
+    };
+    if !adjacent {
+        return triangles_stay_apart(at(a, 0), at(b, 0), thickness);
+    }
+    let tris = mesh.triangles();
+    match one_common_corner(&tris[a as usize], &tris[b as usize]) {
+        Some((i, j)) => fans_stay_apart(at(a, i), at(b, j), thickness),
+        None => false,
+    }
+}
+
+/// Where `p` and `q` have their only common vertex: its places in each, or
+/// None when they share none or more than one.
+#[inline]
+fn one_common_corner(p: &[u32; 3], q: &[u32; 3]) -> Option<(usize, usize)> {
+    let mut found = None;
+    for (i, v) in p.iter().enumerate() {
+        if let Some(j) = q.iter().position(|w| w == v) {
+            if found.is_some() {
+                return None;
+            }
+            found = Some((i, j));
+        }
+    }
+    found
 }
 
 fn key(i: &Impact) -> (u32, u32) {
