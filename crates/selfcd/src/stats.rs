@@ -43,8 +43,9 @@ pub struct FrameStats {
     pub primitive_tests: u64,
     /// Of those, the pairs the floating-point filter proved apart without the
     /// exact predicates (the rest ran the exact test); in continuous
-    /// queries, the triangle pairs a separating axis kept apart over the
-    /// step without element tests.
+    /// queries, the triangle pairs a separating axis (or, for two with one
+    /// common vertex, a plane through it) kept apart over the step without
+    /// element tests.
     pub filter_decisions: u64,
     /// Leaf pairs given the proximity test (thickness > 0; its node pairs are in `node_pairs`).
     pub proximity_tests: u64,

@@ -11,7 +11,10 @@
 //! so every overlapping box pair is descended. Narrow phase: a triangle pair
 //! that a separating axis keeps apart over the step, with a margin
 //! ([`crate::geom::ccd::triangles_stay_apart`]: a sheet sliding along
-//! itself), is skipped, which changes no answer; else additive CCD
+//! itself), is skipped, which changes no answer; so is a pair with one
+//! common vertex that a plane through it keeps apart
+//! ([`crate::geom::ccd::fans_stay_apart`]: the triangles around a vertex
+//! in a patch whose certificate failed); else additive CCD
 //! ([`crate::geom::ccd`]) on each element pair, once per pair (owners).
 //! No false negatives: every pair that comes within `thickness` during the step is
 //! reported, at a time no later than when it does. (A certified patch can hold
