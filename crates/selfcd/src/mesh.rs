@@ -311,6 +311,65 @@ pub struct Mesh {
     /// Computed on first use: the one-shot query never asks (a square root
     /// per edge, 1.1 ms of `Mesh::new`'s 11 at 200k).
     mean_edge: OnceLock<f64>,
+    /// Computed on first use, by the first query that tries a certificate.
+    adjacency: OnceLock<Adjacency>,
+}
+
+/// Which triangle lies across each edge of each triangle, and how the two
+/// meet there: what the one-shot queries' certificates read to walk a
+/// patch's pieces and contour ([`Mesh::adjacency`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Adjacency {
+    /// The triangle across edge k (corners k, k + 1) of each triangle:
+    /// itself on a border, or on an edge in more than two triangles.
+    pub across: Vec<[u32; 3]>,
+    /// Per triangle: [`Adjacency::TANGLED`] when one of its edges is in
+    /// more than two triangles, [`Adjacency::FLIPPED`] `<< k` when the
+    /// triangle across edge k runs it in the same direction (inconsistent
+    /// winding).
+    pub flags: Vec<u8>,
+}
+
+impl Adjacency {
+    /// Flag: one of the triangle's edges is in more than two triangles.
+    pub const TANGLED: u8 = 1;
+    /// Flag, shifted by the edge's index: the triangle across that edge
+    /// runs it in the same direction.
+    pub const FLIPPED: u8 = 2;
+
+    /// The adjacency of `mesh`'s triangles (in parallel; each triangle's
+    /// entries are its own, so the result does not depend on the threads).
+    fn of(mesh: &Mesh) -> Adjacency {
+        let mut adj = Adjacency::default();
+        (0..mesh.n_triangles() as u32)
+            .into_par_iter()
+            .map(|t| Adjacency::around(mesh, t))
+            .unzip_into_vecs(&mut adj.across, &mut adj.flags);
+        adj
+    }
+
+    /// The triangles across the edges of triangle `t` and its flags.
+    fn around(mesh: &Mesh, t: u32) -> ([u32; 3], u8) {
+        let (topo, tris) = (mesh.topology(), mesh.triangles());
+        let tri = tris[t as usize];
+        let (mut across, mut flags) = ([t; 3], 0);
+        for (k, &e) in topo.tri_edges[t as usize].iter().enumerate() {
+            match *topo.edge_tris.row(e as usize) {
+                [_] => {}
+                [s, u] => {
+                    let o = s ^ u ^ t;
+                    across[k] = o;
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let other = tris[o as usize];
+                    if (0..3).any(|j| other[j] == a && other[(j + 1) % 3] == b) {
+                        flags |= Adjacency::FLIPPED << k;
+                    }
+                }
+                _ => flags |= Adjacency::TANGLED,
+            }
+        }
+        (across, flags)
+    }
 }
 
 impl Mesh {
@@ -378,6 +437,7 @@ impl Mesh {
             tris: triangles,
             topo,
             mean_edge: OnceLock::new(),
+            adjacency: OnceLock::new(),
         };
         Ok((mesh, repeats))
     }
@@ -397,6 +457,8 @@ impl Mesh {
             tris,
             topo,
             mean_edge: self.mean_edge.clone(),
+            // (Triangle ids changed.)
+            adjacency: OnceLock::new(),
         }
     }
 
@@ -413,6 +475,12 @@ impl Mesh {
     /// Connectivity built at construction.
     pub fn topology(&self) -> &Topology {
         &self.topo
+    }
+
+    /// The triangles' adjacency, computed on first use and kept: it depends
+    /// on the triangles only, so every query on this mesh shares it.
+    pub fn adjacency(&self) -> &Adjacency {
+        self.adjacency.get_or_init(|| Adjacency::of(self))
     }
 
     /// Number of vertices.
@@ -846,6 +914,55 @@ mod tests {
         let f = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [6, 7, 8]];
         let m = Mesh::new(v, f).unwrap();
         assert_eq!(m.triangle_components(), vec![0, 0, 1, 1]);
+    }
+
+    /// The adjacency against a search of every triangle for each edge, on
+    /// meshes with borders, fins (edges in three or four triangles) and
+    /// flipped triangles; a reordered mesh gets its own.
+    #[test]
+    fn adjacency_matches_a_search() {
+        let (mut flipped, mut tangled_seen) = (0, 0);
+        for seed in 0..6 {
+            let (v, f) = tangled(seed);
+            let m = Mesh::new(v, f.clone()).unwrap();
+            let adj = m.adjacency();
+            for (t, tri) in f.iter().enumerate() {
+                let mut flags = 0;
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let others: Vec<usize> = (0..f.len())
+                        .filter(|&o| o != t && f[o].contains(&a) && f[o].contains(&b))
+                        .collect();
+                    let across = match others[..] {
+                        [o] => {
+                            let same = (0..3).any(|j| f[o][j] == a && f[o][(j + 1) % 3] == b);
+                            flags |= (same as u8 * Adjacency::FLIPPED) << k;
+                            o as u32
+                        }
+                        [] => t as u32,
+                        _ => {
+                            flags |= Adjacency::TANGLED;
+                            t as u32
+                        }
+                    };
+                    assert_eq!(
+                        adj.across[t][k], across,
+                        "seed {seed}, triangle {t}, edge {k}"
+                    );
+                }
+                assert_eq!(adj.flags[t], flags, "seed {seed}, triangle {t}");
+                flipped += (flags & !Adjacency::TANGLED != 0) as usize;
+                tangled_seen += (flags & Adjacency::TANGLED != 0) as usize;
+            }
+            let order: Vec<u32> = (0..f.len() as u32).rev().collect();
+            let r = m.reordered(&order);
+            let back = |t: u32| order[t as usize];
+            for (i, &t) in order.iter().enumerate() {
+                let mapped = r.adjacency().across[i].map(back);
+                assert_eq!(mapped, adj.across[t as usize]);
+            }
+        }
+        assert!(flipped > 10 && tangled_seen > 5, "{flipped} {tangled_seen}");
     }
 
     #[test]

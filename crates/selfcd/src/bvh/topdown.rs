@@ -56,7 +56,7 @@ use crate::geom::loop2d::{
     simple_ccw_loop, star_about, swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
 };
 use crate::geom::{Aabb, NormalCone};
-use crate::mesh::{share_vertex, Mesh};
+use crate::mesh::{share_vertex, Adjacency, Mesh};
 use crate::stats::Counters;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -96,11 +96,6 @@ const IDS: [u8; 64] = {
 const PAR_MIN: usize = 2048;
 /// Triangles per parallel task of one node's certificate passes.
 const CHUNK: usize = 8192;
-/// Edge flag: one of the triangle's edges is in more than two triangles.
-const TANGLED: u8 = 1;
-/// Edge flag, shifted by the edge's index: the triangle across that edge
-/// runs it in the same direction (inconsistent winding).
-const FLIPPED: u8 = 2;
 
 /// The triangles a query sees: at one set of positions, or swept linearly
 /// from the first to the second (each vertex moving on a line over the step).
@@ -248,11 +243,10 @@ struct Query<'a, V> {
     /// a bound on its angle to the exact one; zero where none is known (the
     /// cone test then fails). Empty when nothing is certified.
     normals: Vec<(DVec3, f64)>,
-    /// The triangle across each edge of each triangle (itself where there
-    /// is none: a border, or an edge in more than two triangles).
-    across: Vec<[u32; 3]>,
-    /// [`TANGLED`] and [`FLIPPED`] bits of each triangle.
-    edge_flags: Vec<u8>,
+    /// The triangle across each edge of each triangle, and their flags
+    /// ([`Adjacency`]; kept by the mesh). Empty when nothing is certified.
+    across: &'a [[u32; 3]],
+    edge_flags: &'a [u8],
     order: Vec<AtomicU32>,
     /// `id << 32 | position` of each triangle of the nodes marked `id`
     /// ([`mark`](Query::mark)) for a membership test: written only for the
@@ -410,23 +404,22 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         // What the certificates read (nothing when none is tried).
         let m = if k > 0 { n } else { 0 };
         let mut normals = vec![(DVec3::ZERO, 0.0); k * m];
-        let mut across = vec![[0u32; 3]; m];
-        let mut edge_flags = vec![0u8; m];
+        let (across, edge_flags): (&[[u32; 3]], &[u8]) = match k {
+            0 => (&[], &[]),
+            _ => {
+                let adjacency = mesh.adjacency();
+                (&adjacency.across, &adjacency.flags)
+            }
+        };
         let boxes = OnceLock::new();
         let fits: Vec<Fit> = if k > 0 {
-            (
-                normals.par_chunks_mut(k * CHUNK),
-                across.par_chunks_mut(CHUNK),
-                edge_flags.par_chunks_mut(CHUNK),
-            )
-                .into_par_iter()
+            normals
+                .par_chunks_mut(k * CHUNK)
                 .enumerate()
-                .map(|(c, (normals, across, flags))| {
+                .map(|(c, normals)| {
                     let mut fit = Fit::EMPTY;
-                    for (i, t) in (c * CHUNK..).take(across.len()).enumerate() {
-                        let units = &mut normals[k * i..k * i + k];
+                    for (units, t) in normals.chunks_mut(k).zip(c * CHUNK..) {
                         shape.unit_normals(mesh, t, units);
-                        (across[i], flags[i]) = neighbours(mesh, t as u32);
                         fit = fit.add(&shape.bbox(mesh, t), units);
                     }
                     fit
@@ -982,7 +975,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 self.across[t as usize],
                 self.edge_flags[t as usize],
             );
-            if flags & TANGLED != 0 {
+            if flags & Adjacency::TANGLED != 0 {
                 return None;
             }
             v += (owned[t as usize] & 7).count_ones() as i64;
@@ -990,7 +983,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 let o = across[k];
                 if o == t || self.marked(id, o).is_none() {
                     contour.push([tri[k], tri[(k + 1) % 3]]);
-                } else if flags & (FLIPPED << k) != 0 {
+                } else if flags & (Adjacency::FLIPPED << k) != 0 {
                     return None;
                 }
             }
@@ -1110,33 +1103,6 @@ fn starts(contour: &[[u32; 2]]) -> Vec<u32> {
     v.sort_unstable();
     v.dedup();
     v
-}
-
-/// The triangles across the edges of triangle `t` and its edge flags.
-fn neighbours(mesh: &Mesh, t: u32) -> ([u32; 3], u8) {
-    let (topo, tris) = (mesh.topology(), mesh.triangles());
-    let tri = tris[t as usize];
-    let (mut across, mut flags) = ([t; 3], 0);
-    for (k, &e) in topo.tri_edges[t as usize].iter().enumerate() {
-        match *topo.edge_tris.row(e as usize) {
-            [_] => {}
-            [s, u] => {
-                let o = s ^ u ^ t;
-                across[k] = o;
-                if has_directed_edge(tris[o as usize], tri[k], tri[(k + 1) % 3]) {
-                    flags |= FLIPPED << k;
-                }
-            }
-            _ => flags |= TANGLED,
-        }
-    }
-    (across, flags)
-}
-
-/// Does triangle `tri` hold the directed edge `a -> b`?
-#[inline]
-fn has_directed_edge(tri: [u32; 3], a: u32, b: u32) -> bool {
-    (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b)
 }
 
 #[cfg(test)]
