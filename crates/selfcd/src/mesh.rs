@@ -480,7 +480,15 @@ impl Mesh {
     /// The triangles' adjacency, computed on first use and kept: it depends
     /// on the triangles only, so every query on this mesh shares it.
     pub fn adjacency(&self) -> &Adjacency {
-        self.adjacency.get_or_init(|| Adjacency::of(self))
+        if let Some(adjacency) = self.adjacency.get() {
+            return adjacency;
+        }
+        // Computed outside the cell: the parallel pass lets this thread run
+        // other tasks meanwhile, and one of them may be another query on
+        // this mesh (an initializer that re-entered the cell would
+        // deadlock). Queries that race compute the same value; one is kept.
+        let _ = self.adjacency.set(Adjacency::of(self));
+        self.adjacency.get().expect("set above")
     }
 
     /// Number of vertices.
@@ -963,6 +971,32 @@ mod tests {
             }
         }
         assert!(flipped > 10 && tangled_seen > 5, "{flipped} {tangled_seen}");
+    }
+
+    /// Queries on one new mesh run as tasks of one pool, racing to compute
+    /// its adjacency: every query gets the same answer, and the adjacency
+    /// kept is the one computed alone. (The deadlock `Mesh::adjacency`
+    /// avoids needs a thread to steal a query while it waits inside the
+    /// computation; this test does not force that timing.)
+    #[test]
+    fn concurrent_queries_share_the_adjacency() {
+        use rayon::prelude::*;
+        let (v, f) = crate::scene::grid(160, 1.0);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        for _ in 0..4 {
+            let mesh = Mesh::new(v.clone(), f.clone()).unwrap();
+            let answers: Vec<_> = pool.install(|| {
+                (0..8)
+                    .into_par_iter()
+                    .map(|_| crate::bvh::topdown::self_intersections(&mesh, mesh.rest()).0)
+                    .collect()
+            });
+            assert!(answers.iter().all(|a| a.is_empty()));
+            assert_eq!(mesh.adjacency(), &Adjacency::of(&mesh));
+        }
     }
 
     #[test]
