@@ -411,8 +411,7 @@ impl Cull for MotionCull<'_> {
 
 /// Narrow phase of part (b): the fresh query's `test` on the owned element
 /// pairs of a leaf pair that are not covered, unless `apart` (the fresh
-/// query's triangle-pair test: given the pair and whether it is adjacent)
-/// decides that none of them can be found.
+/// query's triangle-pair test) decides that none of them can be found.
 struct Uncovered<'a, F, A> {
     mesh: &'a Mesh,
     motion: &'a Motion,
@@ -425,7 +424,7 @@ impl<T, F, A> LeafVisitor for Uncovered<'_, F, A>
 where
     T: Send,
     F: Fn(ElementPair) -> Option<T> + Sync,
-    A: Fn([u32; 2], bool) -> bool + Sync,
+    A: Fn([u32; 2]) -> bool + Sync,
 {
     type Item = T;
     const SKIP_ADJACENT: bool = false;
@@ -435,11 +434,11 @@ where
     }
 
     /// Counts the pairs `apart` decides in `filter_decisions`.
-    fn visit_counted(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>, c: &mut Counters) {
+    fn visit_counted(&self, a: u32, b: u32, _: bool, out: &mut Vec<T>, c: &mut Counters) {
         if self.motion.node_spread(a, b) < self.allowance {
             return; // every pair of the two triangles is covered
         }
-        if (self.apart)([a, b], adjacent) {
+        if (self.apart)([a, b]) {
             c.filter_decisions += 1;
             return;
         }
@@ -791,7 +790,7 @@ impl SelfQueries {
         gap: f64,
         (allowance, kind): (f64, Option<Kind>),
         test: impl Fn(ElementPair) -> Option<T> + Sync,
-        apart: impl Fn([u32; 2], bool) -> bool + Sync,
+        apart: impl Fn([u32; 2]) -> bool + Sync,
         start: Option<StartBoxes>,
         s: &mut FrameStats,
     ) -> Vec<T> {
@@ -849,7 +848,7 @@ impl SelfQueries {
         let mesh = self.mesh.clone();
         let near = Proximity::new(&mesh, x, thickness, self.max_contacts);
         let test = |p: ElementPair| near.test(p);
-        let never = |_: [u32; 2], _: bool| false;
+        let never = |_: [u32; 2]| false;
         let mut fresh = self.uncovered(thickness, (allowance, Some(kind)), test, never, None, s);
         let c = &self.candidates;
         let ([vt, ee, skin], covered) = c.covered(&self.motion, thickness, allowance);
@@ -968,7 +967,7 @@ impl SelfQueries {
         let test = |p: ElementPair| {
             element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
         };
-        let apart = |pair, adjacent| stay_apart(&mesh, x0, x1, pair, adjacent, thickness);
+        let apart = |pair| stay_apart(&mesh, x0, x1, pair, thickness);
         let start = at_start.then_some(StartBoxes {
             boxes: &start_boxes,
             thickness,
@@ -1045,14 +1044,7 @@ impl SelfQueries {
                     return; // tested from b
                 }
                 tests += 1;
-                if stay_apart(
-                    &mesh,
-                    x0,
-                    x1,
-                    [a, b],
-                    mesh.share_vertex(a as usize, b as usize),
-                    thickness,
-                ) {
+                if stay_apart(&mesh, x0, x1, [a, b], thickness) {
                     return;
                 }
                 for_each_owned_pair(&mesh, a.min(b), a.max(b), |p| {

@@ -111,18 +111,11 @@ impl LeafVisitor for Continuous<'_> {
         &self,
         a: u32,
         b: u32,
-        adjacent: bool,
+        _adjacent: bool,
         out: &mut Vec<Impact>,
         c: &mut Counters,
     ) {
-        if stay_apart(
-            self.mesh,
-            self.x0,
-            self.x1,
-            [a, b],
-            adjacent,
-            self.thickness,
-        ) {
+        if stay_apart(self.mesh, self.x0, self.x1, [a, b], self.thickness) {
             c.filter_decisions += 1;
             return;
         }
@@ -135,11 +128,10 @@ impl LeafVisitor for Continuous<'_> {
     }
 }
 
-/// True when triangles `a` and `b` of `mesh` (sharing a vertex when
-/// `adjacent`) stay apart over the motion `x0 -> x1` by the margin of
-/// [`triangles_stay_apart`] (or, sharing exactly one vertex, of
-/// [`fans_stay_apart`]; sharing an edge: never), so that no element pair of
-/// theirs that shares no vertex has a time of impact: the continuous
+/// True when triangles `a` and `b` of `mesh` stay apart over the motion
+/// `x0 -> x1` by the margin of [`triangles_stay_apart`] (sharing one vertex:
+/// of [`fans_stay_apart`]; sharing an edge: never), so that no element pair
+/// of theirs that shares no vertex has a time of impact: the continuous
 /// queries skip their element tests, and their answers are the same with or
 /// without this test.
 #[inline]
@@ -148,40 +140,30 @@ pub(crate) fn stay_apart(
     x0: &[DVec3],
     x1: &[DVec3],
     [a, b]: [u32; 2],
-    adjacent: bool,
     thickness: f64,
 ) -> bool {
-    // Triangle t's corners at both ends, from its corner `first` on.
-    let at = |t: u32, first: usize| {
-        let v = mesh.triangles()[t as usize];
+    let tris = mesh.triangles();
+    let (p, q) = (tris[a as usize], tris[b as usize]);
+    // A triangle's corners at both ends, from its corner `first` on.
+    let at = |v: [u32; 3], first: usize| {
         let (i, j, k) = (v[first], v[(first + 1) % 3], v[(first + 2) % 3]);
         let c = |x: &[DVec3]| [x[i as usize], x[j as usize], x[k as usize]];
         [c(x0), c(x1)]
     };
-    if !adjacent {
-        return triangles_stay_apart(at(a, 0), at(b, 0), thickness);
-    }
-    let tris = mesh.triangles();
-    match one_common_corner(&tris[a as usize], &tris[b as usize]) {
-        Some((i, j)) => fans_stay_apart(at(a, i), at(b, j), thickness),
-        None => false,
-    }
-}
-
-/// Where `p` and `q` have their only common vertex: its places in each, or
-/// None when they share none or more than one.
-#[inline]
-fn one_common_corner(p: &[u32; 3], q: &[u32; 3]) -> Option<(usize, usize)> {
-    let mut found = None;
+    // How many vertices they share, and the places of one in `p` and `q`.
+    let (mut common, mut place) = (0, (0, 0));
     for (i, v) in p.iter().enumerate() {
-        if let Some(j) = q.iter().position(|w| w == v) {
-            if found.is_some() {
-                return None;
+        for (j, w) in q.iter().enumerate() {
+            if v == w {
+                (common, place) = (common + 1, (i, j));
             }
-            found = Some((i, j));
         }
     }
-    found
+    match common {
+        0 => triangles_stay_apart(at(p, 0), at(q, 0), thickness),
+        1 => fans_stay_apart(at(p, place.0), at(q, place.1), thickness),
+        _ => false,
+    }
 }
 
 fn key(i: &Impact) -> (u32, u32) {

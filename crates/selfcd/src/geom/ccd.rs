@@ -142,8 +142,7 @@ pub fn triangles_stay_apart(a: [[DVec3; 3]; 2], b: [[DVec3; 3]; 2], thickness: f
         (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]))
     };
     let gap = |k: usize| range(&b[k]).0 - range(&a[k]).1;
-    let all = Aabb::from_points(a.as_flattened()).union(&Aabb::from_points(b.as_flattened()));
-    let limit = axis_limit(&all, thickness);
+    let limit = triangles_limit(&a, &b, thickness);
     // Written so that a NaN keeps the pair.
     gap(0) > limit && gap(1) > limit
 }
@@ -192,8 +191,7 @@ pub fn boxes_stay_apart(a: [Aabb; 2], b: [Aabb; 2], thickness: f64) -> bool {
 pub fn fans_stay_apart(a: [[DVec3; 3]; 2], b: [[DVec3; 3]; 2], thickness: f64) -> bool {
     let spoke = |t: &[DVec3; 3], k: usize| t[k] - t[0];
     let u = axis(spoke(&a[0], 1) + spoke(&a[0], 2) - spoke(&b[0], 1) - spoke(&b[0], 2));
-    let all = Aabb::from_points(a.as_flattened()).union(&Aabb::from_points(b.as_flattened()));
-    let limit = axis_limit(&all, thickness);
+    let limit = triangles_limit(&a, &b, thickness);
     // Written so that a NaN keeps the pair.
     let beyond = |k: usize| {
         let p = |t: &[DVec3; 3], i: usize| u.dot(spoke(t, i));
@@ -208,6 +206,14 @@ pub fn fans_stay_apart(a: [[DVec3; 3]; 2], b: [[DVec3; 3]; 2], thickness: f64) -
 #[inline]
 fn axis(d: DVec3) -> DVec3 {
     (d / d.abs().max_element()).normalize_or_zero()
+}
+
+/// [`axis_limit`] for two moving triangles (the box of their corners at
+/// both ends).
+#[inline(always)]
+fn triangles_limit(a: &[[DVec3; 3]; 2], b: &[[DVec3; 3]; 2], thickness: f64) -> f64 {
+    let all = Aabb::from_points(a.as_flattened()).union(&Aabb::from_points(b.as_flattened()));
+    axis_limit(&all, thickness)
 }
 
 /// The limit of the separating-axis tests for points within `all`: the
@@ -616,6 +622,26 @@ mod tests {
         out
     }
 
+    /// Moving triangles: corners at the start and at the end.
+    type Moving = [[DVec3; 3]; 2];
+
+    /// `test`'s decision on `a`, `b` within `thickness`, after checking it
+    /// is the same with everything scaled by 2^-900 .. 2^900.
+    fn decided_at_every_scale(
+        test: impl Fn(Moving, Moving, f64) -> bool,
+        (a, b): (Moving, Moving),
+        thickness: f64,
+        case: usize,
+    ) -> bool {
+        let decision = test(a, b, thickness);
+        for s in [-900, -300, 300, 900].map(|e| 2f64.powi(e)) {
+            let scaled = |f: Moving| f.map(|t| t.map(|p| p * s));
+            let at = test(scaled(a), scaled(b), thickness * s);
+            assert_eq!(at, decision, "case {case} at scale {s:e}");
+        }
+        decision
+    }
+
     /// Triangle pairs the separating axis keeps apart have no impact in any
     /// of their stencils (so skipping them changes no answer), on random
     /// pairs near each other, many sliding along a shared plane by several
@@ -642,17 +668,8 @@ mod tests {
                 |x: [DVec3; 3]| x.map(|p| p + common + rng.direction() * 0.3 * rng.unit());
             let (a1, b1) = (moved(a0), moved(b0));
             let thickness = 0.1 * rng.unit();
-            let kept_apart = triangles_stay_apart([a0, a1], [b0, b1], thickness);
-            for s in [-900, -300, 300, 900].map(|e| 2f64.powi(e)) {
-                let scaled = |x: [DVec3; 3]| x.map(|p| p * s);
-                let at = triangles_stay_apart(
-                    [scaled(a0), scaled(a1)],
-                    [scaled(b0), scaled(b1)],
-                    thickness * s,
-                );
-                assert_eq!(at, kept_apart, "case {k} at scale {s:e}");
-            }
-            if !kept_apart {
+            let pair = ([a0, a1], [b0, b1]);
+            if !decided_at_every_scale(triangles_stay_apart, pair, thickness, k) {
                 continue;
             }
             apart += 1;
@@ -750,21 +767,14 @@ mod tests {
         assert!(!triangles_stay_apart([huge, huge], [side, side], 0.1));
     }
 
-    /// The stencils of two triangles with common corner 0 that hold it
-    /// not: each other corner against the other triangle, and the edges
-    /// without it against the other's edges that do not share it.
-    fn fan_stencils(a: [DVec3; 3], b: [DVec3; 3]) -> Vec<(StencilKind, [DVec3; 4])> {
-        let mut out = Vec::new();
-        for (p, q) in [(a, b), (b, a)] {
-            for x in [p[1], p[2]] {
-                out.push((StencilKind::VertexTriangle, [x, q[0], q[1], q[2]]));
-            }
-            // The edge across from the common corner, against every edge of the other.
-            for j in 0..3 {
-                out.push((StencilKind::EdgeEdge, [p[1], p[2], q[j], q[(j + 1) % 3]]));
-            }
-        }
-        out
+    /// The stencils of `a` and `b` whose two elements share no point (with
+    /// a common corner: those without it, the only ones a query tests).
+    fn disjoint_stencils(a: [DVec3; 3], b: [DVec3; 3]) -> Vec<(StencilKind, [DVec3; 4])> {
+        let disjoint = |(kind, x): &(StencilKind, [DVec3; 4])| {
+            let (p, q) = x.split_at(kind.split());
+            !p.iter().any(|v| q.contains(v))
+        };
+        stencils(a, b).into_iter().filter(disjoint).collect()
     }
 
     /// Fans (two triangles with one common corner) kept apart have no impact
@@ -780,7 +790,7 @@ mod tests {
         for k in 0..4000 {
             let s0 = rng.direction() * rng.unit();
             let s1 = s0 + rng.direction() * (8.0 * rng.unit());
-            let mut fan = |side: f64| -> [[DVec3; 3]; 2] {
+            let mut fan = |side: f64| -> Moving {
                 let heading = DVec3::new(side, 0.0, 0.0);
                 let corner = |r: &mut SplitMix| (heading + r.direction() * 0.9) * (0.3 + r.unit());
                 let (c1, c2) = (corner(&mut rng), corner(&mut rng));
@@ -790,16 +800,12 @@ mod tests {
             };
             let (a, b) = (fan(1.0), fan(-1.0));
             let thickness = 0.05 * rng.unit();
-            let kept_apart = fans_stay_apart(a, b, thickness);
-            for s in [-900, -300, 300, 900].map(|e| 2f64.powi(e)) {
-                let scaled = |f: [[DVec3; 3]; 2]| f.map(|t| t.map(|p| p * s));
-                let at = fans_stay_apart(scaled(a), scaled(b), thickness * s);
-                assert_eq!(at, kept_apart, "case {k} at scale {s:e}");
-            }
-            let starts = fan_stencils(a[0], b[0]);
+            let kept_apart = decided_at_every_scale(fans_stay_apart, (a, b), thickness, k);
+            // (Only the common corner repeats a position, at both ends.)
+            let starts = disjoint_stencils(a[0], b[0]);
             let impacts = starts
                 .into_iter()
-                .zip(fan_stencils(a[1], b[1]))
+                .zip(disjoint_stencils(a[1], b[1]))
                 .filter(|((kind, x0), (_, x1))| {
                     time_of_impact(*kind, *x0, *x1, thickness).is_some()
                 })
