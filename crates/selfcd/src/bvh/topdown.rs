@@ -260,18 +260,25 @@ struct Query<'a, V> {
 
 /// A range of the permutation, its box, its children once split, and what
 /// the union test needs of it once its own certificate held.
-struct Node {
+struct Node<G> {
     range: Range<u32>,
     bbox: Aabb,
     /// Sum of the unit normals and their largest error bound (see [`Fit`]).
     normals: Option<(DVec3, f64)>,
-    kids: Option<Box<[Node; 2]>>,
+    kids: Option<Box<[Node<G>; 2]>>,
     cert: Option<Cert>,
     /// A leaf's triangles as its pair tests read them, gathered once on first
     /// use ([`Query::leaf_tris`]; a leaf meets a dozen others, and each gather
     /// from the mesh's arrays is a cache miss per triangle). Empty until then.
     tris: Box<[LeafTri]>,
+    /// What the visitor gathered of each of them, in the same order
+    /// ([`LeafVisitor::gather`]; apart, so that the box tests read only
+    /// the boxes).
+    gathered: Box<[G]>,
 }
+
+/// A node of a query with visitor `V`.
+type VNode<V> = Node<<V as LeafVisitor>::Gathered>;
 
 /// What a node's self-certificate test found.
 enum SelfCert {
@@ -288,8 +295,8 @@ struct Cert {
     boundary: Vec<u32>,
 }
 
-impl Node {
-    fn new(range: Range<u32>, fit: Fit) -> Node {
+impl<G> Node<G> {
+    fn new(range: Range<u32>, fit: Fit) -> Node<G> {
         Node {
             range,
             bbox: fit.bbox,
@@ -297,6 +304,7 @@ impl Node {
             kids: None,
             cert: None,
             tris: Box::default(),
+            gathered: Box::default(),
         }
     }
 
@@ -501,7 +509,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The node of the triangles at positions `range`, fitted.
-    fn node(&self, range: Range<u32>) -> Node {
+    fn node(&self, range: Range<u32>) -> VNode<V> {
         let (boxes, k) = (self.boxes(), self.normals_per_triangle());
         let fit = range.clone().fold(Fit::EMPTY, |fit, i| {
             let t = self.tri(i) as usize;
@@ -511,7 +519,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Leaf `node`'s triangles, gathered on first use.
-    fn leaf_tris<'n>(&self, node: &'n mut Node) -> &'n [LeafTri] {
+    fn leaf_tris<'n>(&self, node: &'n mut VNode<V>) -> Leaf<'n, V::Gathered> {
         if node.tris.is_empty() {
             let (boxes, tris) = (self.boxes(), self.mesh.triangles());
             node.tris = node
@@ -526,12 +534,16 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                     }
                 })
                 .collect();
+            node.gathered = node.tris.iter().map(|p| self.visitor.gather(p.t)).collect();
         }
-        &node.tris
+        Leaf {
+            tris: &node.tris,
+            gathered: &node.gathered,
+        }
     }
 
     /// Every intersecting pair within `node`, into `f`.
-    fn self_test(&self, node: &mut Node, f: &mut Found<V::Item>) {
+    fn self_test(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) {
         if node.len() <= LEAF {
             return self.leaf_self(node, f);
         }
@@ -590,7 +602,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair with one triangle in `a`, one in `b`.
-    fn pair_test(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
+    fn pair_test(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
         if self.done(f) || !a.bbox.within(&b.bbox, self.gap) {
             return;
         }
@@ -614,7 +626,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// [`pair_test`](Self::pair_test) of two large nodes by their four
     /// child pairs, two disjoint ones at a time in parallel tasks.
-    fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
+    fn pair_test_parallel(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
         let [a0, a1] = self.kids(a, &mut f.scratch.split);
         let [b0, b1] = self.kids(b, &mut f.scratch.split);
         self.pair_tests_apart(a0, b0, a1, b1, f);
@@ -625,10 +637,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// nodes) as two parallel tasks.
     fn pair_tests_apart(
         &self,
-        p: &mut Node,
-        q: &mut Node,
-        r: &mut Node,
-        s: &mut Node,
+        p: &mut VNode<V>,
+        q: &mut VNode<V>,
+        r: &mut VNode<V>,
+        s: &mut VNode<V>,
         f: &mut Found<V::Item>,
     ) {
         let ((), other) = rayon::join(
@@ -643,7 +655,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The children of `node`, split now if they are not yet.
-    fn kids<'n>(&self, node: &'n mut Node, buf: &mut Vec<u32>) -> &'n mut [Node; 2] {
+    fn kids<'n>(&self, node: &'n mut VNode<V>, buf: &mut Vec<u32>) -> &'n mut [VNode<V>; 2] {
         if node.kids.is_none() {
             let mid = self.partition(node, buf);
             node.kids = Some(Box::new([
@@ -661,7 +673,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// with a seam through every layer). The middle of the range is taken
     /// instead when the midpoint leaves a side with under 1/16 of it, so the
     /// depth stays logarithmic. Returns where the second part starts.
-    fn partition(&self, node: &Node, buf: &mut Vec<u32>) -> u32 {
+    fn partition(&self, node: &VNode<V>, buf: &mut Vec<u32>) -> u32 {
         let Range { start, end } = node.range.clone();
         let boxes = self.boxes();
         let twice_mid = node.bbox.min + node.bbox.max;
@@ -739,7 +751,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// The self-certificate of `node` (module doc), kept in the node when
     /// it holds; counted in `f`.
-    fn self_certified(&self, node: &mut Node, f: &mut Found<V::Item>) -> SelfCert {
+    fn self_certified(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) -> SelfCert {
         let Some(cone) = node.normals.and_then(|n| self.cone(node, n)) else {
             return SelfCert::Refused;
         };
@@ -771,7 +783,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// fails the disk test, and so do its spatial halves, which hold the
     /// same layers, down to the leaves. Split by pieces, each layer can
     /// certify on its own, and only the pair of layers is descended.
-    fn split_off_piece(&self, node: &Node) -> Option<u32> {
+    fn split_off_piece(&self, node: &VNode<V>) -> Option<u32> {
         let Range { start, end } = node.range.clone();
         let len = (end - start) as usize;
         const NONE: u32 = u32::MAX;
@@ -820,7 +832,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// The certificate of the union of `a` and `b`, tried only when their
     /// merged cone is under 90 degrees and their contours share a vertex
     /// (patches apart have two loops, which the test refuses).
-    fn union_certified(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) -> bool {
+    fn union_certified(&self, a: &VNode<V>, b: &VNode<V>, f: &mut Found<V::Item>) -> bool {
         let (Some(pa), Some(pb)) = (&a.cert, &b.cert) else {
             return false;
         };
@@ -874,7 +886,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// erring by at most `err`) about their mean normal, when it is under 90
     /// degrees: the normal farthest from the axis, the scan stopping at one
     /// past 90 degrees.
-    fn cone(&self, node: &Node, (sum, err): (DVec3, f64)) -> Option<NormalCone> {
+    fn cone(&self, node: &VNode<V>, (sum, err): (DVec3, f64)) -> Option<NormalCone> {
         let axis = sum.normalize_or_zero();
         let k = self.normals_per_triangle();
         let least = self.pieces(std::slice::from_ref(&node.range), |r| {
@@ -992,40 +1004,48 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair within leaf `node`.
-    fn leaf_self(&self, node: &mut Node, f: &mut Found<V::Item>) {
+    fn leaf_self(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) {
         let leaf = self.leaf_tris(node);
-        for (i, p) in leaf.iter().enumerate() {
-            self.test_near(p, leaf, &IDS[i + 1..leaf.len()], f);
+        for i in 0..leaf.tris.len() {
+            self.test_near((leaf, i), leaf, &IDS[i + 1..leaf.tris.len()], f);
         }
     }
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
-    fn leaf_pair(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
+    fn leaf_pair(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
         let (box_a, box_b) = (a.bbox, b.bbox);
         let mut near_b = [0u8; LEAF];
         let tb = self.leaf_tris(b);
-        let lb = self.near(tb, &box_a, &mut near_b);
+        let lb = self.near(tb.tris, &box_a, &mut near_b);
         if lb.is_empty() {
             return;
         }
         let mut near_a = [0u8; LEAF];
         let ta = self.leaf_tris(a);
-        for &i in self.near(ta, &box_b, &mut near_a) {
-            self.test_near(&ta[i as usize], tb, lb, f);
+        for &i in self.near(ta.tris, &box_b, &mut near_a) {
+            self.test_near((ta, i as usize), tb, lb, f);
         }
     }
 
-    /// [`test`](Self::test) of `p` with each of `qs[k]`, k in `ids` (at most
-    /// 64), whose box is within the gap of `p`'s: the boxes are compared
-    /// first, all of them without a branch (a box test is a coin flip for
-    /// the branch predictor), and only the pairs they keep are tested.
+    /// [`test`](Self::test) of triangle `i` of leaf `a` with each
+    /// triangle `k` of leaf `b`, k in `ids` (at most 64), whose box is
+    /// within the gap of its: the boxes are compared first, all of them
+    /// without a branch (a box test is a coin flip for the branch
+    /// predictor), and only the pairs they keep are tested.
     #[inline]
-    fn test_near(&self, p: &LeafTri, qs: &[LeafTri], ids: &[u8], f: &mut Found<V::Item>) {
+    fn test_near(
+        &self,
+        (a, i): (Leaf<V::Gathered>, usize),
+        b: Leaf<V::Gathered>,
+        ids: &[u8],
+        f: &mut Found<V::Item>,
+    ) {
         debug_assert!(ids.len() <= 64);
+        let p = &a.tris[i];
         // Bit k: q_ids[k]'s box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u64, 0u64);
         for (k, &i) in ids.iter().enumerate() {
-            let q = &qs[i as usize];
+            let q = &b.tris[i as usize];
             let within = p.bbox.within(&q.bbox, self.gap);
             near |= (within as u64) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
@@ -1036,8 +1056,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         }
         while near != 0 {
             let k = near.trailing_zeros();
-            let q = &qs[ids[k as usize] as usize];
-            self.test(p, q, adjacent >> k & 1 != 0, f);
+            let j = ids[k as usize] as usize;
+            self.test((p.t, &a.gathered[i]), b.at(j), adjacent >> k & 1 != 0, f);
             near &= near - 1;
         }
     }
@@ -1059,11 +1079,18 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// gap (`adjacent`: they share a vertex; never for a visitor that skips
     /// those).
     #[inline]
-    fn test(&self, p: &LeafTri, q: &LeafTri, adjacent: bool, f: &mut Found<V::Item>) {
+    fn test(
+        &self,
+        p: (u32, &V::Gathered),
+        q: (u32, &V::Gathered),
+        adjacent: bool,
+        f: &mut Found<V::Item>,
+    ) {
         f.counters.primitive_tests += 1;
-        let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
+        let (lo, hi) = if p.0 < q.0 { (p, q) } else { (q, p) };
+        let out = &mut f.items.last;
         self.visitor
-            .visit_counted(lo, hi, adjacent, &mut f.items.last, &mut f.counters);
+            .visit_gathered(lo, hi, adjacent, out, &mut f.counters);
         f.items.set_aside_when_full();
     }
 }
@@ -1086,13 +1113,18 @@ struct LeafTri {
     v: [u32; 3],
 }
 
-impl Default for LeafTri {
-    fn default() -> Self {
-        LeafTri {
-            t: 0,
-            bbox: Aabb::EMPTY,
-            v: [0; 3],
-        }
+/// A leaf's triangles and what the visitor gathered of each.
+#[derive(Clone, Copy)]
+struct Leaf<'n, G> {
+    tris: &'n [LeafTri],
+    gathered: &'n [G],
+}
+
+impl<'n, G> Leaf<'n, G> {
+    /// Triangle `i`'s id and what was gathered of it.
+    #[inline]
+    fn at(&self, i: usize) -> (u32, &'n G) {
+        (self.tris[i].t, &self.gathered[i])
     }
 }
 
