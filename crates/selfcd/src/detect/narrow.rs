@@ -28,6 +28,10 @@ pub struct Intersect<'a> {
 impl LeafVisitor for Intersect<'_> {
     type Item = [u32; 2];
     const SKIP_ADJACENT: bool = true;
+    /// Nothing: most triangles of a leaf are tested once or not at all
+    /// (the boxes and the adjacency skip the rest), and gathering their
+    /// corners made the one-shot 3-5% slower on the crumpled grid and the
+    /// dress (measured).
     type Gathered = ();
 
     #[inline]
