@@ -466,10 +466,9 @@ impl LeafVisitor for Gather<'_> {
             return; // the output guard: the build fails afterwards
         }
         let before = out.len();
-        let (pa, pb) = (
-            NearTri::new(self.mesh, self.x, a),
-            NearTri::new(self.mesh, self.x, b),
-        );
+        let Some([pa, pb]) = NearTri::pair(self.mesh, self.x, a, b) else {
+            return;
+        };
         for_each_owned_near(&self.hulls, &pa, &pb, |p, kind, c| {
             out.extend(self.hulls.closest_within(kind, c).map(|(d, _)| (d, p)))
         });

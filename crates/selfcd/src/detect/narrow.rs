@@ -334,9 +334,10 @@ impl LeafVisitor for Proximity<'_> {
     }
 
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Near>) {
-        let (ga, gb) = (self.gather(a), self.gather(b));
-        let c = &mut Counters::default();
-        self.visit_gathered((a, &ga), (b, &gb), adjacent, out, c);
+        if let Some([ga, gb]) = NearTri::pair(self.mesh, self.positions, a, b) {
+            let c = &mut Counters::default();
+            self.visit_gathered((a, &ga), (b, &gb), adjacent, out, c);
+        }
     }
 
     fn visit_gathered(
@@ -417,7 +418,7 @@ pub struct NearTri {
 
 impl NearTri {
     /// Triangle `t` of `mesh` at positions `x`.
-    #[inline]
+    #[inline(always)]
     pub fn new(mesh: &Mesh, x: &[DVec3], t: u32) -> NearTri {
         let topo = mesh.topology();
         let i = t as usize;
@@ -428,6 +429,16 @@ impl NearTri {
             edges: topo.tri_edges[i],
             owned: topo.owned[i],
         }
+    }
+
+    /// Triangles `a` and `b` as [`NearTri::new`] makes them, or `None`
+    /// when neither owns an element (they then have no owned pair: nothing
+    /// is read).
+    #[inline]
+    pub fn pair(mesh: &Mesh, x: &[DVec3], a: u32, b: u32) -> Option<[NearTri; 2]> {
+        let owned = &mesh.topology().owned;
+        (owned[a as usize] | owned[b as usize] != 0)
+            .then(|| [NearTri::new(mesh, x, a), NearTri::new(mesh, x, b)])
     }
 
     /// Edge `k`'s box.
@@ -457,6 +468,7 @@ impl NearTri {
 /// decided for all fifteen (six vertex-triangle, nine edge-edge) without
 /// a branch (each test is a coin flip for the branch predictor), from the
 /// boxes [`NearTri`] holds; only the kept ones are formed.
+#[inline(always)]
 pub fn for_each_owned_near(
     hulls: &HullCull,
     a: &NearTri,
