@@ -528,6 +528,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         };
         let fit = range.clone().fold(Fit::EMPTY, |fit, i| {
             let t = self.tri(i) as usize;
+            // (No normals where nothing is certified.)
             fit.add(&boxes[t], sums.get(t..t + 1).unwrap_or_default())
         });
         Node::new(range, fit)
@@ -1059,8 +1060,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         let p = &a.tris[i];
         // Bit k: q_ids[k]'s box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u64, 0u64);
-        for (k, &i) in ids.iter().enumerate() {
-            let q = &b.tris[i as usize];
+        for (k, &j) in ids.iter().enumerate() {
+            let q = &b.tris[j as usize];
             let within = p.bbox.within(&q.bbox, self.gap);
             near |= (within as u64) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
@@ -1072,7 +1073,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         while near != 0 {
             let k = near.trailing_zeros();
             let j = ids[k as usize] as usize;
-            self.test((p.t, &a.gathered[i]), b.at(j), adjacent >> k & 1 != 0, f);
+            self.test(a.at(i), b.at(j), adjacent >> k & 1 != 0, f);
             near &= near - 1;
         }
     }
