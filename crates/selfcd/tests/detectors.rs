@@ -727,3 +727,52 @@ fn slabs_give_the_brute_force_answers() {
     );
     println!("slab culls {culls}");
 }
+
+/// A flat annular sector (radii 10 to 14, one unit apart; about one unit
+/// along each ring) whose two ends are `gap` apart at the inner ring: one
+/// disk, a height field, every triangle's altitude above 0.6, so only the
+/// proximity certificate's contour clearance can see the ends come close.
+fn open_ring(gap: f64) -> Arc<Mesh> {
+    let (rings, steps) = (5usize, 60usize);
+    let sweep = 2.0 * PI - gap / 10.0;
+    let mut v = Vec::new();
+    for i in 0..rings {
+        for j in 0..=steps {
+            let (r, a) = (10.0 + i as f64, sweep * j as f64 / steps as f64);
+            v.push([r * a.cos(), r * a.sin(), 0.0]);
+        }
+    }
+    let id = |i: usize, j: usize| (i * (steps + 1) + j) as u32;
+    let mut f = Vec::new();
+    for i in 0..rings - 1 {
+        for j in 0..steps {
+            f.push([id(i, j), id(i, j + 1), id(i + 1, j + 1)]);
+            f.push([id(i, j), id(i + 1, j + 1), id(i + 1, j)]);
+        }
+    }
+    Arc::new(Mesh::new(v, f).unwrap())
+}
+
+#[test]
+fn proximity_certificates_cull_flat_patches_and_keep_close_ends() {
+    // A flat sheet at 0.6 edges: its root certifies, nothing is tested.
+    let (v, f) = grid(41, 1.0);
+    let mesh = Arc::new(Mesh::new(v, f).unwrap());
+    let d = 0.6 * mesh.mean_edge_length();
+    let (near, c) = proximity_contacts(&mesh, mesh.rest(), d, usize::MAX).unwrap();
+    assert!(near.is_empty());
+    assert_eq!((c.self_culls, c.primitive_tests), (1, 0), "{c:?}");
+    // The open ring: its ends 2 apart, nothing near, and certified whole; 0.2
+    // apart, the ends' vertices and edges are contacts, which the contour's
+    // clearance (not the altitudes) keeps from being certified away.
+    let d = 0.5;
+    for (gap, certified) in [(2.0, true), (0.2, false)] {
+        let mesh = open_ring(gap);
+        let x = mesh.rest();
+        let (near, c) = proximity_contacts(&mesh, x, d, usize::MAX).unwrap();
+        let want = detect(&mesh, Method::Brute, x, d).proximity;
+        assert_eq!(near, want, "gap {gap}");
+        assert_eq!(near.is_empty(), certified, "gap {gap}: {near:?}");
+        assert_eq!(c.primitive_tests == 0, certified, "gap {gap}: {c:?}");
+    }
+}

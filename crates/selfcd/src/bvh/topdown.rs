@@ -47,13 +47,46 @@
 //! a positive number of times, so one turn means one cycle, one component,
 //! and Euler(S') <= 1; cutting added as many vertices as it made copies, so
 //! Euler(S') = 1 + copies forces no copy: S' = S is a disk.
+//!
+//! **Proximity.** A proximity query (gap `d` > 0, [`Shape::At`]) certifies
+//! too, with two more conditions, so that a flat patch is not descended to
+//! its leaves (normal cones alone do not bound distances). Let S pass the
+//! certificate along axis v, its normals within angle `h` of v. Then S
+//! projects along v one to one onto a disk D (the contour being its
+//! boundary), and (a) every triangle's least altitude bound times `cos h`
+//! and (b) the projected distance from each end of each contour edge to
+//! every contour edge not ending there both exceed the clearance `c`
+//! (the reach, `d` plus the element tests' slack, with a margin for the
+//! projection's rounding). Claim: no vertex of S is within `c` of a
+//! triangle T of S without it, and no two edges of S without a common
+//! vertex are within `c` of each other; projection only shortens
+//! distances, so it suffices to show this for the projections. A
+//! projected triangle's altitudes are at least its own times `cos h` (its
+//! area shrinks by the cosine of its normal's angle, no side grows).
+//! Vertex p, triangle T: T lies in D outside the fan of p's triangles.
+//! The segment from p to T's nearest point either starts into the fan,
+//! and leaves it through a side opposite p (at least an altitude of (a)
+//! away) or along a side from p (at least that side's length, longer than
+//! its altitude); or starts outside D, and must enter D across a contour
+//! edge not ending at p (a contour edge through p cannot be crossed from
+//! p), at least (b) away. Two edges: their projections do not cross
+//! (D is embedded and they share no point), so their distance is that of
+//! an end of one to the other edge e, of a triangle T of S; if the end is
+//! a corner of T, e is the side opposite it (an altitude), else the
+//! vertex case applies. Hence every such pair is farther than `d` and
+//! no element test reports it: the query's answer is unchanged. The
+//! altitudes fail (refusing the certificate early) where a triangle is
+//! thinner than about `d`; there, flat or not, a vertex and the triangle
+//! across the opposite side are genuine contacts.
 
 use super::chunks::Chunks;
 use crate::bvh::patch::have_common;
 use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
+use crate::geom::distance::{least_altitude, HullCull};
 use crate::geom::loop2d::{
-    simple_ccw_loop, star_about, swept_simple_ccw_loop, swept_star_about, LoopScratch, Plane, Seg,
+    ends_clear_of_edges, simple_ccw_loop, star_about, swept_simple_ccw_loop, swept_star_about,
+    LoopScratch, Plane, Seg,
 };
 use crate::geom::{Aabb, NormalCone};
 use crate::mesh::{share_vertex, Adjacency, Mesh};
@@ -179,7 +212,10 @@ pub fn first_intersection(mesh: &Mesh, positions: &[DVec3]) -> Option<[u32; 2]> 
 /// the query did. At gap 0 a node, or the union of two, whose certificate
 /// holds (over the whole motion for [`Shape::Swept`]) is not descended: no
 /// two elements of it that share no vertex touch, so `visitor` must report
-/// only such touching pairs there. Above 0 boxes alone cull.
+/// only such touching pairs there. Above 0 a [`Shape::At`] query certifies
+/// with the proximity conditions (module doc): `visitor` must then report
+/// only element pairs that share no vertex and are within the gap (plus
+/// the element tests' slack). A swept query above 0 culls by boxes alone.
 pub fn query<V: LeafVisitor>(
     mesh: &Mesh,
     shape: Shape,
@@ -247,6 +283,13 @@ struct Query<'a, V> {
     /// and largest bound, or zero where one is not known: what a node's fit
     /// reads ([`Query::node`]; a third of the bytes). Empty otherwise.
     normal_sums: Vec<(DVec3, f64)>,
+    /// A proximity query's lower bound on each triangle's least altitude
+    /// ([`least_altitude`]), for the clearance of its certificates (module
+    /// doc, "Proximity"). Empty at gap 0.
+    altitudes: Vec<f64>,
+    /// The distance a proximity certificate must keep every pair above:
+    /// the gap plus the element tests' slack ([`HullCull::reach`]).
+    reach: f64,
     /// The triangle across each edge of each triangle, and their flags
     /// ([`Adjacency`]; kept by the mesh). Empty when nothing is certified.
     across: &'a [[u32; 3]],
@@ -297,6 +340,8 @@ enum SelfCert {
 struct Cert {
     cone: NormalCone,
     boundary: Vec<u32>,
+    /// The least altitude bound of its triangles (a proximity query's).
+    altitude: f64,
 }
 
 impl<G> Node<G> {
@@ -460,6 +505,16 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             0 | 1 => Vec::new(),
             _ => normals.par_chunks(k).map(summed).collect(),
         };
+        let (altitudes, reach) = match shape {
+            Shape::At(x) if k > 0 && gap > 0.0 => (
+                (0..m)
+                    .into_par_iter()
+                    .map(|t| least_altitude(&mesh.corners(x, t)))
+                    .collect(),
+                HullCull::new(gap, x).reach(),
+            ),
+            _ => (Vec::new(), 0.0),
+        };
         let q = Query {
             mesh,
             shape,
@@ -469,6 +524,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             boxes,
             normals,
             normal_sums,
+            altitudes,
+            reach,
             across,
             edge_flags,
             order: (0..n as u32).map(AtomicU32::new).collect(),
@@ -768,9 +825,12 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// The self-certificate of `node` (module doc), kept in the node when
     /// it holds; counted in `f`.
     fn self_certified(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) -> SelfCert {
-        let Some(cone) = node.normals.and_then(|n| self.cone(node, n)) else {
+        let Some((cone, altitude)) = node.normals.and_then(|n| self.cone(node, n)) else {
             return SelfCert::Refused;
         };
+        if !self.spaced(altitude, &cone, &node.bbox) {
+            return SelfCert::Refused;
+        }
         f.counters.contour_tests += 1;
         let mut contour = std::mem::take(&mut f.scratch.contour);
         let range = std::slice::from_ref(&node.range);
@@ -778,7 +838,11 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         let ok = euler == Some(1) && self.height_field(cone.axis, &node.bbox, &contour, f);
         if ok {
             let boundary = starts(&contour);
-            node.cert = Some(Cert { cone, boundary });
+            node.cert = Some(Cert {
+                cone,
+                boundary,
+                altitude,
+            });
         }
         f.scratch.contour = contour;
         f.counters.contour_fails += !ok as u64;
@@ -853,15 +917,19 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             return false;
         };
         let (ca, cb) = (pa.cone, pb.cone);
-        let (box_a, box_b) = (a.bbox, b.bbox);
+        let both = a.bbox.union(&b.bbox);
         if !ca.merge_is_positive(&cb) || !have_common(&pa.boundary, &pb.boundary) {
+            return false;
+        }
+        let cone = ca.merge(&cb);
+        if !self.spaced(pa.altitude.min(pb.altitude), &cone, &both) {
             return false;
         }
         f.counters.contour_tests += 1;
         let ranges = [a.range.clone(), b.range.clone()];
         let mut contour = std::mem::take(&mut f.scratch.contour);
         let ok = self.disk_contour(&ranges, &mut contour)
-            && self.height_field(ca.merge(&cb).axis, &box_a.union(&box_b), &contour, f);
+            && self.height_field(cone.axis, &both, &contour, f);
         f.scratch.contour = contour;
         f.counters.contour_fails += !ok as u64;
         ok
@@ -889,6 +957,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         };
         project(self.shape.start(), &mut s.segs);
         match self.shape {
+            Shape::At(_) if self.gap > 0.0 => {
+                (star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops))
+                    && ends_clear_of_edges(&s.segs, self.clearance(bbox), &mut s.loops)
+            }
             Shape::At(_) => star_about(&s.segs, [0.0; 2]) || simple_ccw_loop(&s.segs, &mut s.loops),
             Shape::Swept(_, x1) => {
                 project(x1, &mut s.segs_end);
@@ -902,11 +974,17 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// erring by at most `err`) about their mean normal, when it is under 90
     /// degrees: the normal farthest from the axis, the scan stopping at one
     /// past 90 degrees.
-    fn cone(&self, node: &VNode<V>, (sum, err): (DVec3, f64)) -> Option<NormalCone> {
+    ///
+    /// With the cone, the least of the triangles' altitude bounds (a
+    /// proximity query's; infinite otherwise).
+    fn cone(&self, node: &VNode<V>, (sum, err): (DVec3, f64)) -> Option<(NormalCone, f64)> {
         let axis = sum.normalize_or_zero();
         let k = self.normals_per_triangle();
+        let none = (f64::INFINITY, DVec3::ZERO, f64::INFINITY);
+        // No altitude at or below the clearance passes `spaced`.
+        let floor = self.clearance(&node.bbox);
         let least = self.pieces(std::slice::from_ref(&node.range), |r| {
-            let mut least = (f64::INFINITY, DVec3::ZERO);
+            let mut least = none;
             for i in r {
                 let t = self.tri(i) as usize;
                 for &(n, _) in &self.normals[k * t..k * t + k] {
@@ -915,18 +993,45 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                         return None;
                     }
                     if dot < least.0 {
-                        least = (dot, n);
+                        least = (dot, n, least.2);
                     }
+                }
+                if let Some(&h) = self.altitudes.get(t) {
+                    if !(h > floor) {
+                        return None; // too low for any cone: refused early
+                    }
+                    least.2 = least.2.min(h);
                 }
             }
             Some(least)
         });
-        let (_, least) = least
-            .into_iter()
-            .try_fold((f64::INFINITY, DVec3::ZERO), |a, b| {
-                b.map(|b| if b.0 < a.0 { b } else { a })
-            })?;
-        NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)
+        let (_, least, altitude) = least.into_iter().try_fold(none, |a, b| {
+            b.map(|b| {
+                let h = a.2.min(b.2);
+                if b.0 < a.0 {
+                    (b.0, b.1, h)
+                } else {
+                    (a.0, a.1, h)
+                }
+            })
+        })?;
+        let cone = NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)?;
+        Some((cone, altitude))
+    }
+
+    /// The clearance a proximity certificate of triangles within `bbox`
+    /// asks of its projected contour and altitudes: the reach, with margins
+    /// far above the rounding of the projection and of the contour's
+    /// distances (a few ulps of the box's extent).
+    fn clearance(&self, bbox: &Aabb) -> f64 {
+        self.reach * (1.0 + 1e-9) + 1e-9 * (bbox.max - bbox.min).element_sum()
+    }
+
+    /// True at gap 0; for a proximity query, when triangles whose least
+    /// altitude bound is `altitude` and whose normals lie in `cone` have
+    /// projected altitudes above the clearance (module doc, "Proximity").
+    fn spaced(&self, altitude: f64, cone: &NormalCone, bbox: &Aabb) -> bool {
+        self.gap == 0.0 || altitude * cone.cos_half() * (1.0 - 1e-9) > self.clearance(bbox)
     }
 
     /// Writes the contour of the union of `ranges` into `contour`; true
@@ -1127,12 +1232,13 @@ fn summed(units: &[(DVec3, f64)]) -> (DVec3, f64) {
 }
 
 /// How many unit normals of each triangle a query of `shape` within `gap`
-/// reads: none unless it certifies (gap 0).
+/// reads: none unless it certifies (gap 0, or a proximity query at one
+/// position).
 fn normals_read(shape: Shape, gap: f64) -> usize {
-    if gap == 0.0 {
-        shape.normals_per_triangle()
-    } else {
-        0
+    match shape {
+        _ if gap == 0.0 => shape.normals_per_triangle(),
+        Shape::At(_) => 1,
+        Shape::Swept(..) => 0,
     }
 }
 

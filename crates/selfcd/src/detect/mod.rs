@@ -213,9 +213,12 @@ pub fn one_shot_detection(mesh: &Mesh, positions: &[DVec3]) -> Result<Detection>
 /// the query fails with [`Error::TooManyContacts`].
 ///
 /// Runs on the one-shot's top-down hierarchy ([`crate::bvh::topdown`]), split
-/// wherever two boxes come within `thickness` (normal cones do not bound
-/// distances, so nothing is certified). A simulation, which asks every step,
-/// keeps [`coherent::SelfQueries`] instead.
+/// wherever two boxes come within `thickness`, except in patches whose
+/// certificate holds with room to spare: under 90 degrees of normals, a
+/// disk seen along the cone's axis, every triangle's altitude and the
+/// contour's own clearance above `thickness` (the module doc's
+/// "Proximity"; a flat sheet is not descended at all). A simulation, which
+/// asks every step, keeps [`coherent::SelfQueries`] instead.
 pub fn proximity_contacts(
     mesh: &Mesh,
     positions: &[DVec3],

@@ -352,6 +352,15 @@ impl NormalCone {
         }
     }
 
+    /// The cosine of the half-angle: every direction under the cone (every
+    /// exact normal it was fitted to) makes at most this angle with the
+    /// axis, up to the cosine's own rounding (a few ulps). Not positive for
+    /// the full cone.
+    #[inline]
+    pub fn cos_half(&self) -> f64 {
+        self.half().c
+    }
+
     /// Half-angle in radians (for reports; the engine works with cosines and sines).
     pub fn half_angle(&self) -> f64 {
         2.0 * self.quarter.s.atan2(self.quarter.c)

@@ -82,10 +82,36 @@ impl HullCull {
         self.boxes_apart(&Aabb::from_points(a), &Aabb::from_points(b))
     }
 
+    /// The gap plus the slack: two elements whose exact distance exceeds
+    /// this are never computed closer than the gap.
+    #[inline]
+    pub fn reach(&self) -> f64 {
+        self.reach
+    }
+
     /// [`apart`](Self::apart) for hulls given by their boxes.
     #[inline]
     pub fn boxes_apart(&self, a: &Aabb, b: &Aabb) -> bool {
         !a.within(b, self.reach)
+    }
+}
+
+/// A lower bound on the least altitude of triangle `c` (twice its area over
+/// its longest side: how close a corner comes to the line of the opposite
+/// side), or 0 where none is known (degenerate, or squares that over- or
+/// underflow). The cross product's rounding (a few ulps of `|e1| |e2|` per
+/// component) is taken off its length first, and the quotient lowered by
+/// far more than its own rounding.
+pub fn least_altitude(c: &[DVec3; 3]) -> f64 {
+    let (e1, e2, e3) = (c[1] - c[0], c[2] - c[0], c[2] - c[1]);
+    let (l1, l2, l3) = (e1.length(), e2.length(), e3.length());
+    let twice_area = e1.cross(e2).length() - 16.0 * f64::EPSILON * l1 * l2;
+    let h = twice_area / l1.max(l2).max(l3) * (1.0 - 1e-12);
+    // Written so that a NaN gives 0.
+    if h > 0.0 && h.is_finite() {
+        h
+    } else {
+        0.0
     }
 }
 

@@ -5,6 +5,7 @@
 //! only with a margin far above the rounding of the projection; near-touching
 //! is "not simple". A `false` costs speed (no cull), never a missed contact.
 
+use super::predicates::{exponent, mul_pow2};
 use glam::DVec3;
 
 /// A contour edge projected on the plane normal to a cone axis: endpoints and vertex ids.
@@ -667,6 +668,45 @@ fn point_seg_distance(p: [f64; 2], s: &Seg) -> f64 {
         0.0
     };
     len([w[0] - t * d[0], w[1] - t * d[1]])
+}
+
+/// Is every end of each edge of `segs` (a contour that passed
+/// [`star_about`] or [`simple_ccw_loop`]: edges meet only at common ends)
+/// farther than `clearance` (> 0) from every edge not ending there? The
+/// pairs whose boxes come within the clearance are compared
+/// (the sweep of the loop tests), on coordinates moved by a power of two
+/// (exact) to magnitude about 1, so that no square over- or underflows.
+/// The distances round by a few ulps of the extent: a caller's clearance
+/// must hold its own margin above that. Refuses non-finite coordinates.
+pub fn ends_clear_of_edges(segs: &[Seg], clearance: f64, scratch: &mut LoopScratch) -> bool {
+    let magnitude = segs
+        .iter()
+        .flat_map(|s| s.p.as_flattened())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    if !magnitude.is_finite() || !(clearance > 0.0) {
+        return false;
+    }
+    let k = if magnitude > 0.0 { -exponent(magnitude) } else { 0 };
+    let scaled: Vec<Seg> = segs
+        .iter()
+        .map(|s| Seg {
+            p: s.p.map(|p| p.map(|x| mul_pow2(x, k))),
+            v: s.v,
+        })
+        .collect();
+    let clearance = mul_pow2(clearance, k);
+    // An end of one edge against the other edge, where it is not an end of it.
+    let apart = |a: &Seg, b: &Seg| {
+        (0..2).all(|i| b.v.contains(&a.v[i]) || point_seg_distance(a.p[i], b) > clearance)
+    };
+    pairs_clear(
+        &scaled,
+        None,
+        None,
+        clearance,
+        |i, j| apart(&scaled[i], &scaled[j]) && apart(&scaled[j], &scaled[i]),
+        scratch,
+    )
 }
 
 /// Is the projected contour one simple counter-clockwise loop at every time
