@@ -307,25 +307,18 @@ struct Query<'a, V> {
 
 /// A range of the permutation, its box, its children once split, and what
 /// the union test needs of it once its own certificate held.
-struct Node<G> {
+struct Node {
     range: Range<u32>,
     bbox: Aabb,
     /// Sum of the unit normals and their largest error bound (see [`Fit`]).
     normals: Option<(DVec3, f64)>,
-    kids: Option<Box<[Node<G>; 2]>>,
+    kids: Option<Box<[Node; 2]>>,
     cert: Option<Cert>,
     /// A leaf's triangles as its pair tests read them, gathered once on first
     /// use ([`Query::leaf_tris`]; a leaf meets a dozen others, and each gather
     /// from the mesh's arrays is a cache miss per triangle). Empty until then.
     tris: Box<[LeafTri]>,
-    /// What the visitor gathered of each of them, in the same order
-    /// ([`LeafVisitor::gather`]; apart, so that the box tests read only
-    /// the boxes).
-    gathered: Box<[G]>,
 }
-
-/// A node of a query with visitor `V`.
-type VNode<V> = Node<<V as LeafVisitor>::Gathered>;
 
 /// What a node's self-certificate test found.
 enum SelfCert {
@@ -344,8 +337,8 @@ struct Cert {
     altitude: f64,
 }
 
-impl<G> Node<G> {
-    fn new(range: Range<u32>, fit: Fit) -> Node<G> {
+impl Node {
+    fn new(range: Range<u32>, fit: Fit) -> Node {
         Node {
             range,
             bbox: fit.bbox,
@@ -353,7 +346,6 @@ impl<G> Node<G> {
             kids: None,
             cert: None,
             tris: Box::default(),
-            gathered: Box::default(),
         }
     }
 
@@ -575,7 +567,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The node of the triangles at positions `range`, fitted.
-    fn node(&self, range: Range<u32>) -> VNode<V> {
+    fn node(&self, range: Range<u32>) -> Node {
         let boxes = self.boxes();
         // Each triangle's normals as one: the sum of its own, or itself.
         let sums = match self.normals_per_triangle() {
@@ -592,7 +584,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Leaf `node`'s triangles, gathered on first use.
-    fn leaf_tris<'n>(&self, node: &'n mut VNode<V>) -> Leaf<'n, V::Gathered> {
+    fn leaf_tris<'n>(&self, node: &'n mut Node) -> &'n [LeafTri] {
         if node.tris.is_empty() {
             let (boxes, tris) = (self.boxes(), self.mesh.triangles());
             node.tris = node
@@ -607,16 +599,12 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                     }
                 })
                 .collect();
-            node.gathered = node.tris.iter().map(|p| self.visitor.gather(p.t)).collect();
         }
-        Leaf {
-            tris: &node.tris,
-            gathered: &node.gathered,
-        }
+        &node.tris
     }
 
     /// Every intersecting pair within `node`, into `f`.
-    fn self_test(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) {
+    fn self_test(&self, node: &mut Node, f: &mut Found<V::Item>) {
         if node.len() <= LEAF {
             return self.leaf_self(node, f);
         }
@@ -675,7 +663,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair with one triangle in `a`, one in `b`.
-    fn pair_test(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
+    fn pair_test(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
         if self.done(f) || !a.bbox.within(&b.bbox, self.gap) {
             return;
         }
@@ -699,7 +687,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// [`pair_test`](Self::pair_test) of two large nodes by their four
     /// child pairs, two disjoint ones at a time in parallel tasks.
-    fn pair_test_parallel(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
+    fn pair_test_parallel(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
         let [a0, a1] = self.kids(a, &mut f.scratch.split);
         let [b0, b1] = self.kids(b, &mut f.scratch.split);
         self.pair_tests_apart(a0, b0, a1, b1, f);
@@ -710,10 +698,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// nodes) as two parallel tasks.
     fn pair_tests_apart(
         &self,
-        p: &mut VNode<V>,
-        q: &mut VNode<V>,
-        r: &mut VNode<V>,
-        s: &mut VNode<V>,
+        p: &mut Node,
+        q: &mut Node,
+        r: &mut Node,
+        s: &mut Node,
         f: &mut Found<V::Item>,
     ) {
         let ((), other) = rayon::join(
@@ -728,7 +716,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The children of `node`, split now if they are not yet.
-    fn kids<'n>(&self, node: &'n mut VNode<V>, buf: &mut Vec<u32>) -> &'n mut [VNode<V>; 2] {
+    fn kids<'n>(&self, node: &'n mut Node, buf: &mut Vec<u32>) -> &'n mut [Node; 2] {
         if node.kids.is_none() {
             let mid = self.partition(node, buf);
             node.kids = Some(Box::new([
@@ -746,7 +734,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// with a seam through every layer). The middle of the range is taken
     /// instead when the midpoint leaves a side with under 1/16 of it, so the
     /// depth stays logarithmic. Returns where the second part starts.
-    fn partition(&self, node: &VNode<V>, buf: &mut Vec<u32>) -> u32 {
+    fn partition(&self, node: &Node, buf: &mut Vec<u32>) -> u32 {
         let Range { start, end } = node.range.clone();
         let boxes = self.boxes();
         let twice_mid = node.bbox.min + node.bbox.max;
@@ -824,7 +812,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// The self-certificate of `node` (module doc), kept in the node when
     /// it holds; counted in `f`.
-    fn self_certified(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) -> SelfCert {
+    fn self_certified(&self, node: &mut Node, f: &mut Found<V::Item>) -> SelfCert {
         let Some((cone, altitude)) = node.normals.and_then(|n| self.cone(node, n)) else {
             return SelfCert::Refused;
         };
@@ -863,7 +851,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// fails the disk test, and so do its spatial halves, which hold the
     /// same layers, down to the leaves. Split by pieces, each layer can
     /// certify on its own, and only the pair of layers is descended.
-    fn split_off_piece(&self, node: &VNode<V>) -> Option<u32> {
+    fn split_off_piece(&self, node: &Node) -> Option<u32> {
         let Range { start, end } = node.range.clone();
         let len = (end - start) as usize;
         const NONE: u32 = u32::MAX;
@@ -912,7 +900,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// The certificate of the union of `a` and `b`, tried only when their
     /// merged cone is under 90 degrees and their contours share a vertex
     /// (patches apart have two loops, which the test refuses).
-    fn union_certified(&self, a: &VNode<V>, b: &VNode<V>, f: &mut Found<V::Item>) -> bool {
+    fn union_certified(&self, a: &Node, b: &Node, f: &mut Found<V::Item>) -> bool {
         let (Some(pa), Some(pb)) = (&a.cert, &b.cert) else {
             return false;
         };
@@ -977,7 +965,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     ///
     /// With the cone, the least of the triangles' altitude bounds (a
     /// proximity query's; infinite otherwise).
-    fn cone(&self, node: &VNode<V>, (sum, err): (DVec3, f64)) -> Option<(NormalCone, f64)> {
+    fn cone(&self, node: &Node, (sum, err): (DVec3, f64)) -> Option<(NormalCone, f64)> {
         let axis = sum.normalize_or_zero();
         let k = self.normals_per_triangle();
         let none = (f64::INFINITY, DVec3::ZERO, f64::INFINITY);
@@ -1015,7 +1003,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
                 }
             })
         })?;
-        let cone = NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)?;
+        let cone =
+            NormalCone::within_90_around(axis, least, err).filter(NormalCone::is_positive)?;
         Some((cone, altitude))
     }
 
@@ -1125,48 +1114,40 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// Every intersecting pair within leaf `node`.
-    fn leaf_self(&self, node: &mut VNode<V>, f: &mut Found<V::Item>) {
+    fn leaf_self(&self, node: &mut Node, f: &mut Found<V::Item>) {
         let leaf = self.leaf_tris(node);
-        for i in 0..leaf.tris.len() {
-            self.test_near((leaf, i), leaf, &IDS[i + 1..leaf.tris.len()], f);
+        for (i, p) in leaf.iter().enumerate() {
+            self.test_near(p, leaf, &IDS[i + 1..leaf.len()], f);
         }
     }
 
     /// Every intersecting pair of a triangle of leaf `a` and one of leaf `b`.
-    fn leaf_pair(&self, a: &mut VNode<V>, b: &mut VNode<V>, f: &mut Found<V::Item>) {
+    fn leaf_pair(&self, a: &mut Node, b: &mut Node, f: &mut Found<V::Item>) {
         let (box_a, box_b) = (a.bbox, b.bbox);
         let mut near_b = [0u8; LEAF];
         let tb = self.leaf_tris(b);
-        let lb = self.near(tb.tris, &box_a, &mut near_b);
+        let lb = self.near(tb, &box_a, &mut near_b);
         if lb.is_empty() {
             return;
         }
         let mut near_a = [0u8; LEAF];
         let ta = self.leaf_tris(a);
-        for &i in self.near(ta.tris, &box_b, &mut near_a) {
-            self.test_near((ta, i as usize), tb, lb, f);
+        for &i in self.near(ta, &box_b, &mut near_a) {
+            self.test_near(&ta[i as usize], tb, lb, f);
         }
     }
 
-    /// [`test`](Self::test) of triangle `i` of leaf `a` with each
-    /// triangle `k` of leaf `b`, k in `ids` (at most 64), whose box is
-    /// within the gap of its: the boxes are compared first, all of them
-    /// without a branch (a box test is a coin flip for the branch
-    /// predictor), and only the pairs they keep are tested.
+    /// [`test`](Self::test) of `p` with each of `qs[k]`, k in `ids` (at most
+    /// 64), whose box is within the gap of `p`'s: the boxes are compared
+    /// first, all of them without a branch (a box test is a coin flip for
+    /// the branch predictor), and only the pairs they keep are tested.
     #[inline]
-    fn test_near(
-        &self,
-        (a, i): (Leaf<V::Gathered>, usize),
-        b: Leaf<V::Gathered>,
-        ids: &[u8],
-        f: &mut Found<V::Item>,
-    ) {
+    fn test_near(&self, p: &LeafTri, qs: &[LeafTri], ids: &[u8], f: &mut Found<V::Item>) {
         debug_assert!(ids.len() <= 64);
-        let p = &a.tris[i];
         // Bit k: q_ids[k]'s box is within the gap; of those, sharing a vertex.
         let (mut near, mut adjacent) = (0u64, 0u64);
-        for (k, &j) in ids.iter().enumerate() {
-            let q = &b.tris[j as usize];
+        for (k, &i) in ids.iter().enumerate() {
+            let q = &qs[i as usize];
             let within = p.bbox.within(&q.bbox, self.gap);
             near |= (within as u64) << k;
             adjacent |= ((within & share_vertex(&p.v, &q.v)) as u64) << k;
@@ -1177,8 +1158,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         }
         while near != 0 {
             let k = near.trailing_zeros();
-            let j = ids[k as usize] as usize;
-            self.test(a.at(i), b.at(j), adjacent >> k & 1 != 0, f);
+            let q = &qs[ids[k as usize] as usize];
+            self.test(p, q, adjacent >> k & 1 != 0, f);
             near &= near - 1;
         }
     }
@@ -1200,18 +1181,11 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// gap (`adjacent`: they share a vertex; never for a visitor that skips
     /// those).
     #[inline]
-    fn test(
-        &self,
-        p: (u32, &V::Gathered),
-        q: (u32, &V::Gathered),
-        adjacent: bool,
-        f: &mut Found<V::Item>,
-    ) {
+    fn test(&self, p: &LeafTri, q: &LeafTri, adjacent: bool, f: &mut Found<V::Item>) {
         f.counters.primitive_tests += 1;
-        let (lo, hi) = if p.0 < q.0 { (p, q) } else { (q, p) };
-        let out = &mut f.items.last;
+        let (lo, hi) = (p.t.min(q.t), p.t.max(q.t));
         self.visitor
-            .visit_gathered(lo, hi, adjacent, out, &mut f.counters);
+            .visit_counted(lo, hi, adjacent, &mut f.items.last, &mut f.counters);
         f.items.set_aside_when_full();
     }
 }
@@ -1248,21 +1222,6 @@ struct LeafTri {
     t: u32,
     bbox: Aabb,
     v: [u32; 3],
-}
-
-/// A leaf's triangles and what the visitor gathered of each.
-#[derive(Clone, Copy)]
-struct Leaf<'n, G> {
-    tris: &'n [LeafTri],
-    gathered: &'n [G],
-}
-
-impl<'n, G> Leaf<'n, G> {
-    /// Triangle `i`'s id and what was gathered of it.
-    #[inline]
-    fn at(&self, i: usize) -> (u32, &'n G) {
-        (self.tris[i].t, &self.gathered[i])
-    }
 }
 
 /// The sorted distinct start vertices of `contour` (every vertex of a

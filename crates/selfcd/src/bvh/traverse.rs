@@ -92,16 +92,6 @@ pub trait LeafVisitor: Sync {
     type Item: Send;
     /// True when leaf pairs sharing a vertex are skipped without a visit.
     const SKIP_ADJACENT: bool;
-    /// What a leaf of the one-shot hierarchy ([`super::topdown`]) keeps of
-    /// each of its triangles for this visitor (its corners, say): a leaf
-    /// meets a dozen others, and reading the mesh's arrays again for every
-    /// pair is a cache miss per corner. `()` where nothing is kept.
-    type Gathered: Copy + Default + Send;
-    /// What a leaf keeps of triangle `t` ([`Self::Gathered`]).
-    #[inline]
-    fn gather(&self, _t: u32) -> Self::Gathered {
-        Self::Gathered::default()
-    }
     /// Tests triangles `a` and `b` (a != b) and appends what it finds to `out`.
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Self::Item>);
 
@@ -128,21 +118,6 @@ pub trait LeafVisitor: Sync {
     fn visit_clear(&self, a: u32, b: u32, out: &mut Vec<Self::Item>, c: &mut Counters) -> f64 {
         self.visit_counted(a, b, false, out, c);
         0.0
-    }
-
-    /// [`visit_counted`](Self::visit_counted) of triangles `a` and `b`
-    /// given what was gathered of each ([`gather`](Self::gather)); the
-    /// default reads nothing of it.
-    #[inline]
-    fn visit_gathered(
-        &self,
-        (a, _): (u32, &Self::Gathered),
-        (b, _): (u32, &Self::Gathered),
-        adjacent: bool,
-        out: &mut Vec<Self::Item>,
-        counters: &mut Counters,
-    ) {
-        self.visit_counted(a, b, adjacent, out, counters)
     }
 }
 

@@ -67,7 +67,7 @@
 use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
     check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key,
-    ElementPair, Intersect, Near, NearTri, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
+    ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
@@ -428,7 +428,6 @@ where
 {
     type Item = T;
     const SKIP_ADJACENT: bool = false;
-    type Gathered = ();
 
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>) {
         self.visit_counted(a, b, adjacent, out, &mut Counters::default());
@@ -459,18 +458,14 @@ struct Gather<'a> {
 impl LeafVisitor for Gather<'_> {
     type Item = (f64, ElementPair);
     const SKIP_ADJACENT: bool = false;
-    type Gathered = ();
 
     fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<(f64, ElementPair)>) {
         if self.found.load(Ordering::Relaxed) > self.max {
             return; // the output guard: the build fails afterwards
         }
         let before = out.len();
-        let Some([pa, pb]) = NearTri::pair(self.mesh, self.x, a, b) else {
-            return;
-        };
-        for_each_owned_near(&self.hulls, &pa, &pb, |p, kind, c| {
-            out.extend(self.hulls.closest_within(kind, c).map(|(d, _)| (d, p)))
+        for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
+            out.extend(self.hulls.closest_within(kind, &c).map(|(d, _)| (d, p)))
         });
         if out.len() > before {
             self.found.fetch_add(out.len() - before, Ordering::Relaxed);

@@ -101,10 +101,6 @@ struct Continuous<'a> {
 impl LeafVisitor for Continuous<'_> {
     type Item = Impact;
     const SKIP_ADJACENT: bool = false;
-    /// Nothing: a triangle is tested against about five others (975k
-    /// triangle pairs over the 200k folded grid's step), too few to repay
-    /// gathering its corners at both ends (that query was 25% slower).
-    type Gathered = ();
 
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Impact>) {
         self.visit_counted(a, b, adjacent, out, &mut Counters::default());

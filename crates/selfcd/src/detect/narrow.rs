@@ -28,11 +28,6 @@ pub struct Intersect<'a> {
 impl LeafVisitor for Intersect<'_> {
     type Item = [u32; 2];
     const SKIP_ADJACENT: bool = true;
-    /// Nothing: most triangles of a leaf are tested once or not at all
-    /// (the boxes and the adjacency skip the rest), and gathering their
-    /// corners made the one-shot 3-5% slower on the crumpled grid and the
-    /// dress (measured).
-    type Gathered = ();
 
     #[inline]
     fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<[u32; 2]>) {
@@ -326,36 +321,17 @@ impl<'a> Proximity<'a> {
 impl LeafVisitor for Proximity<'_> {
     type Item = Near;
     const SKIP_ADJACENT: bool = false;
-    type Gathered = NearTri;
 
-    #[inline]
-    fn gather(&self, t: u32) -> NearTri {
-        NearTri::new(self.mesh, self.positions, t)
-    }
-
-    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<Near>) {
-        if let Some([ga, gb]) = NearTri::pair(self.mesh, self.positions, a, b) {
-            let c = &mut Counters::default();
-            self.visit_gathered((a, &ga), (b, &gb), adjacent, out, c);
-        }
-    }
-
-    fn visit_gathered(
-        &self,
-        (_, a): (u32, &NearTri),
-        (_, b): (u32, &NearTri),
-        _adjacent: bool,
-        out: &mut Vec<Near>,
-        _counters: &mut Counters,
-    ) {
+    fn visit(&self, a: u32, b: u32, _adjacent: bool, out: &mut Vec<Near>) {
         if self.found.load(Ordering::Relaxed) > self.max_contacts {
             return; // the output guard: the query fails in check_output
         }
         let before = out.len();
-        for_each_owned_near(&self.hulls, a, b, |pair, _, c| {
+        let x = self.positions;
+        for_each_owned_near(self.mesh, x, &self.hulls, a, b, |pair, _, c| {
             out.extend(match pair {
-                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, c),
-                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, c),
+                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, &c),
+                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, &c),
             })
         });
         if out.len() > before {
@@ -400,150 +376,88 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
     }
 }
 
-/// A triangle as the proximity kernel ([`for_each_owned_near`]) reads it:
-/// its vertices, corners, edges and which of its elements it owns. Made
-/// once per triangle of a leaf, where the kernel runs on a dozen pairs per
-/// triangle. (Its boxes are formed again by each pair: stored, they made
-/// the struct three times larger and the skirt's query about 3% slower.)
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NearTri {
-    id: u32,
-    v: [u32; 3],
-    corners: [DVec3; 3],
-    /// Edge k's id (corners k and k + 1; [`crate::mesh::Topology::tri_edges`]).
-    edges: [u32; 3],
-    /// [`crate::mesh::Topology::owned`].
-    owned: u8,
-}
-
-impl NearTri {
-    /// Triangle `t` of `mesh` at positions `x`.
-    #[inline(always)]
-    pub fn new(mesh: &Mesh, x: &[DVec3], t: u32) -> NearTri {
-        let topo = mesh.topology();
-        let i = t as usize;
-        NearTri {
-            id: t,
-            v: mesh.triangles()[i],
-            corners: mesh.corners(x, i),
-            edges: topo.tri_edges[i],
-            owned: topo.owned[i],
-        }
-    }
-
-    /// Triangles `a` and `b` as [`NearTri::new`] makes them, or `None`
-    /// when neither owns an element (they then have no owned pair: nothing
-    /// is read).
-    #[inline]
-    pub fn pair(mesh: &Mesh, x: &[DVec3], a: u32, b: u32) -> Option<[NearTri; 2]> {
-        let owned = &mesh.topology().owned;
-        (owned[a as usize] | owned[b as usize] != 0)
-            .then(|| [NearTri::new(mesh, x, a), NearTri::new(mesh, x, b)])
-    }
-
-    /// Edge `k`'s box.
-    #[inline(always)]
-    fn edge_box(&self, k: usize) -> Aabb {
-        Aabb::from_points(&[self.corners[k], self.corners[(k + 1) % 3]])
-    }
-
-    /// The places of edge `k`'s ends (corners k, k + 1) in the order the
-    /// topology stores the edge: smaller vertex first.
-    #[inline(always)]
-    fn edge_ends(&self, k: usize) -> [usize; 2] {
-        let (i, j) = (k, (k + 1) % 3);
-        if self.v[i] < self.v[j] {
-            [i, j]
-        } else {
-            [j, i]
-        }
-    }
-}
-
 /// The owned element pairs of triangles `a` and `b` that share no vertex and
-/// whose hulls the cull keeps, canonical, each with its stencil's kind and
-/// corners (in [`ElementPair::stencil`]'s order): exactly what
+/// whose hulls at `x` the cull keeps, canonical, each with its stencil's kind
+/// and corners (in [`ElementPair::stencil`]'s order): exactly what
 /// [`for_each_owned_pair`] followed by `canonical`, `stencil` and
-/// [`HullCull::apart`] gives, in the same order. Which pairs are kept is
-/// decided for all fifteen (six vertex-triangle, nine edge-edge) without
-/// a branch (each test is a coin flip for the branch predictor), from the
-/// boxes [`NearTri`] holds; only the kept ones are formed.
-#[inline(always)]
+/// [`HullCull::apart`] gives, in the same order, with each corner read and
+/// each box fitted once per triangle pair instead of once per element pair.
 pub fn for_each_owned_near(
+    mesh: &Mesh,
+    x: &[DVec3],
     hulls: &HullCull,
-    a: &NearTri,
-    b: &NearTri,
-    mut f: impl FnMut(ElementPair, StencilKind, &[DVec3; 4]),
+    a: u32,
+    b: u32,
+    mut f: impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
 ) {
-    if (a.owned | b.owned) == 0 {
+    let topo = mesh.topology();
+    let (oa, ob) = (topo.owned[a as usize], topo.owned[b as usize]);
+    if (oa | ob) == 0 {
         return;
     }
-    // Bit k: vertex k of `p` (owned, not in `q`) is within reach of `q`'s box.
-    let vertices_near = |p: &NearTri, q: &NearTri| {
-        let (mut bits, hull) = (0u32, Aabb::from_points(&q.corners));
-        for k in 0..3 {
-            let point = Aabb::from_points(&[p.corners[k]]);
-            let apart = hulls.boxes_apart(&point, &hull);
-            let incident = (p.v[k] == q.v[0]) | (p.v[k] == q.v[1]) | (p.v[k] == q.v[2]);
-            bits |= u32::from(!apart & !incident) << k;
-        }
-        bits & u32::from(p.owned & 7)
-    };
-    let (va, vb) = (vertices_near(a, b), vertices_near(b, a));
-    for_each_bit(va, |k| {
-        let c = [a.corners[k], b.corners[0], b.corners[1], b.corners[2]];
-        f(
-            ElementPair::VertexTriangle(a.v[k], b.id),
-            StencilKind::VertexTriangle,
-            &c,
-        );
-    });
-    for_each_bit(vb, |k| {
-        let c = [b.corners[k], a.corners[0], a.corners[1], a.corners[2]];
-        f(
-            ElementPair::VertexTriangle(b.v[k], a.id),
-            StencilKind::VertexTriangle,
-            &c,
-        );
-    });
-    let (ea, eb) = (u32::from(a.owned >> 3 & 7), u32::from(b.owned >> 3 & 7));
-    if ea == 0 || eb == 0 {
+    let tris = mesh.triangles();
+    let (ta, tb) = (&tris[a as usize], &tris[b as usize]);
+    let (pa, pb) = (ta.map(|v| x[v as usize]), tb.map(|v| x[v as usize]));
+    owned_vertices_near(hulls, (ta, &pa, oa), (tb, &pb, b), &mut f);
+    owned_vertices_near(hulls, (tb, &pb, ob), (ta, &pa, a), &mut f);
+    if oa & 0o70 == 0 || ob & 0o70 == 0 {
         return;
     }
-    // Bit 3 ka + kb: edge ka of `a` and edge kb of `b` (both owned) share
-    // no vertex and their boxes are within reach.
-    let (mut edges, boxes_b) = (0u32, [b.edge_box(0), b.edge_box(1), b.edge_box(2)]);
-    for ka in 0..3 {
-        let (i, j, box_a) = (a.v[ka], a.v[(ka + 1) % 3], a.edge_box(ka));
-        for (kb, box_b) in boxes_b.iter().enumerate() {
-            let (k, l) = (b.v[kb], b.v[(kb + 1) % 3]);
-            let shared = (i == k) | (i == l) | (j == k) | (j == l);
-            let apart = hulls.boxes_apart(&box_a, box_b);
-            edges |= u32::from(!shared & !apart) << (3 * ka + kb);
+    let (ea, eb) = (&topo.tri_edges[a as usize], &topo.tri_edges[b as usize]);
+    for ka in (0..3).filter(|k| oa & (8 << k) != 0) {
+        let (va, xa) = edge_of(ta, &pa, ka);
+        let hull = Aabb::from_points(&xa);
+        for kb in (0..3).filter(|k| ob & (8 << k) != 0) {
+            let (vb, xb) = edge_of(tb, &pb, kb);
+            let shared = va[0] == vb[0] || va[0] == vb[1] || va[1] == vb[0] || va[1] == vb[1];
+            if shared || hulls.boxes_apart(&hull, &Aabb::from_points(&xb)) {
+                continue;
+            }
+            let (e0, e1) = (ea[ka], eb[kb]);
+            let (pair, c) = if e0 <= e1 {
+                (ElementPair::EdgeEdge(e0, e1), [xa[0], xa[1], xb[0], xb[1]])
+            } else {
+                (ElementPair::EdgeEdge(e1, e0), [xb[0], xb[1], xa[0], xa[1]])
+            };
+            f(pair, StencilKind::EdgeEdge, c);
         }
     }
-    let owned = (0..3).fold(0, |m, ka| m | ((ea >> ka & 1) * (eb << (3 * ka))));
-    for_each_bit(edges & owned, |bit| {
-        let (ka, kb) = (bit / 3, bit % 3);
-        let (e0, e1) = (a.edges[ka], b.edges[kb]);
-        let ((p, [i, j]), (q, [k, l])) = ((a, a.edge_ends(ka)), (b, b.edge_ends(kb)));
-        let (pair, c) = if e0 <= e1 {
-            let c = [p.corners[i], p.corners[j], q.corners[k], q.corners[l]];
-            (ElementPair::EdgeEdge(e0, e1), c)
-        } else {
-            let c = [q.corners[k], q.corners[l], p.corners[i], p.corners[j]];
-            (ElementPair::EdgeEdge(e1, e0), c)
-        };
-        f(pair, StencilKind::EdgeEdge, &c);
-    });
 }
 
-/// `f` of each set bit's place in `bits`, lowest first.
+/// The vertex-triangle part of [`for_each_owned_near`]: the vertices of
+/// triangle `tv` (corners `pv`) that it owns, against triangle `t`.
 #[inline(always)]
-fn for_each_bit(mut bits: u32, mut f: impl FnMut(usize)) {
-    while bits != 0 {
-        f(bits.trailing_zeros() as usize);
-        bits &= bits - 1;
+fn owned_vertices_near(
+    hulls: &HullCull,
+    (tv, pv, owned): (&[u32; 3], &[DVec3; 3], u8),
+    (tt, pt, t): (&[u32; 3], &[DVec3; 3], u32),
+    f: &mut impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
+) {
+    if owned & 7 == 0 {
+        return;
+    }
+    let hull = Aabb::from_points(pt);
+    for k in (0..3).filter(|k| owned & (1 << k) != 0) {
+        if !tt.contains(&tv[k]) && !hulls.boxes_apart(&Aabb::from_points(&[pv[k]]), &hull) {
+            let c = [pv[k], pt[0], pt[1], pt[2]];
+            f(
+                ElementPair::VertexTriangle(tv[k], t),
+                StencilKind::VertexTriangle,
+                c,
+            );
+        }
+    }
+}
+
+/// Edge `k` (corners k, k + 1) of a triangle with corners `p`, as the
+/// topology stores it: smaller vertex first.
+#[inline(always)]
+fn edge_of(t: &[u32; 3], p: &[DVec3; 3], k: usize) -> ([u32; 2], [DVec3; 2]) {
+    let (i, j) = (k, (k + 1) % 3);
+    if t[i] < t[j] {
+        ([t[i], t[j]], [p[i], p[j]])
+    } else {
+        ([t[j], t[i]], [p[j], p[i]])
     }
 }
 
@@ -707,8 +621,9 @@ mod tests {
                         }
                     });
                     let mut fast = Vec::new();
-                    let (pa, pb) = (NearTri::new(&mesh, &x, a), NearTri::new(&mesh, &x, b));
-                    for_each_owned_near(&hulls, &pa, &pb, |p, kind, c| fast.push((p, kind, *c)));
+                    for_each_owned_near(&mesh, &x, &hulls, a, b, |p, kind, c| {
+                        fast.push((p, kind, c))
+                    });
                     kept += slow.len();
                     assert_eq!(fast, slow, "triangles {a} and {b}, gap {gap}");
                 }

@@ -686,7 +686,11 @@ pub fn ends_clear_of_edges(segs: &[Seg], clearance: f64, scratch: &mut LoopScrat
     if !magnitude.is_finite() || !(clearance > 0.0) {
         return false;
     }
-    let k = if magnitude > 0.0 { -exponent(magnitude) } else { 0 };
+    let k = if magnitude > 0.0 {
+        -exponent(magnitude)
+    } else {
+        0
+    };
     let scaled: Vec<Seg> = segs
         .iter()
         .map(|s| Seg {
