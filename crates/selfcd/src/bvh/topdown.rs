@@ -1191,8 +1191,9 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 }
 
 /// The sum of a triangle's unit normals and their largest bound, or zero
-/// where one is not known (zero): as [`Fit::add`] takes them one by one,
-/// but one read for a node's fit.
+/// when one of them is not known (zero) or they cancel exactly: what
+/// [`Fit::add`] would sum one by one (its zero refuses the cone either
+/// way), in one read for a node's fit.
 fn summed(units: &[(DVec3, f64)]) -> (DVec3, f64) {
     let known = units.iter().all(|&(n, _)| n != DVec3::ZERO);
     let sum = units
