@@ -83,7 +83,7 @@ use super::chunks::Chunks;
 use crate::bvh::patch::have_common;
 use crate::bvh::traverse::LeafVisitor;
 use crate::detect::narrow::Intersect;
-use crate::geom::distance::{least_altitude, HullCull};
+use crate::geom::distance::{least_altitude, APART_SLACK};
 use crate::geom::loop2d::{
     ends_clear_of_edges, simple_ccw_loop, star_about, swept_simple_ccw_loop, swept_star_about,
     LoopScratch, Plane, Seg,
@@ -287,9 +287,6 @@ struct Query<'a, V> {
     /// ([`least_altitude`]), for the clearance of its certificates (module
     /// doc, "Proximity"). Empty at gap 0.
     altitudes: Vec<f64>,
-    /// The distance a proximity certificate must keep every pair above:
-    /// the gap plus the element tests' slack ([`HullCull::reach`]).
-    reach: f64,
     /// The triangle across each edge of each triangle, and their flags
     /// ([`Adjacency`]; kept by the mesh). Empty when nothing is certified.
     across: &'a [[u32; 3]],
@@ -497,15 +494,12 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             0 | 1 => Vec::new(),
             _ => normals.par_chunks(k).map(summed).collect(),
         };
-        let (altitudes, reach) = match shape {
-            Shape::At(x) if k > 0 && gap > 0.0 => (
-                (0..m)
-                    .into_par_iter()
-                    .map(|t| least_altitude(&mesh.corners(x, t)))
-                    .collect(),
-                HullCull::new(gap, x).reach(),
-            ),
-            _ => (Vec::new(), 0.0),
+        let altitudes = match shape {
+            Shape::At(x) if k > 0 && gap > 0.0 => (0..m)
+                .into_par_iter()
+                .map(|t| least_altitude(&mesh.corners(x, t)))
+                .collect(),
+            _ => Vec::new(),
         };
         let q = Query {
             mesh,
@@ -517,7 +511,6 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             normals,
             normal_sums,
             altitudes,
-            reach,
             across,
             edge_flags,
             order: (0..n as u32).map(AtomicU32::new).collect(),
@@ -1009,11 +1002,16 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     }
 
     /// The clearance a proximity certificate of triangles within `bbox`
-    /// asks of its projected contour and altitudes: the reach, with margins
-    /// far above the rounding of the projection and of the contour's
-    /// distances (a few ulps of the box's extent).
+    /// asks of its projected contour and altitudes: the gap plus the slack
+    /// the element culls keep above the distance functions' rounding, at
+    /// the box's coordinate magnitude (as
+    /// [`crate::geom::distance::hulls_apart`] takes it for a pair inside
+    /// the box), with margins far above the rounding of the projection and
+    /// of the contour's distances (a few ulps of the box's extent).
     fn clearance(&self, bbox: &Aabb) -> f64 {
-        self.reach * (1.0 + 1e-9) + 1e-9 * (bbox.max - bbox.min).element_sum()
+        let magnitude = bbox.min.abs().max(bbox.max.abs()).max_element();
+        let reach = self.gap + APART_SLACK * magnitude;
+        reach * (1.0 + 1e-9) + 1e-9 * (bbox.max - bbox.min).element_sum()
     }
 
     /// True at gap 0; for a proximity query, when triangles whose least

@@ -82,13 +82,6 @@ impl HullCull {
         self.boxes_apart(&Aabb::from_points(a), &Aabb::from_points(b))
     }
 
-    /// The gap plus the slack: two elements whose exact distance exceeds
-    /// this are never computed closer than the gap.
-    #[inline]
-    pub fn reach(&self) -> f64 {
-        self.reach
-    }
-
     /// [`apart`](Self::apart) for hulls given by their boxes.
     #[inline]
     pub fn boxes_apart(&self, a: &Aabb, b: &Aabb) -> bool {
