@@ -245,6 +245,9 @@ class SelfQueries:
     Each answer equals a fresh query's (`Detector` with a thickness for proximity,
     `continuous_impacts` for continuous, `self_intersections` for intersections); only
     the work differs, and `last_stats` counts it ("candidates": answered from the set).
+    Where sets go stale after a few calls (the mesh moves more than the skin in a few
+    frames), proximity calls are answered one-shot in streaks between sets
+    ("proximity_one_shots").
 
     Args:
         mesh: the mesh.

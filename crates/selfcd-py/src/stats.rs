@@ -41,6 +41,7 @@ pub fn fields(s: &FrameStats) -> Vec<(&'static str, Value)> {
         ("proximity_contacts", U(s.proximity_contacts)),
         ("candidate_builds", U(s.candidate_builds)),
         ("candidate_reuses", U(s.candidate_reuses)),
+        ("proximity_one_shots", U(s.proximity_one_shots)),
         ("candidates", U(s.candidates)),
         ("continuous_repeats", U(s.continuous_repeats)),
         ("continuous_from_proximity", U(s.continuous_from_proximity)),

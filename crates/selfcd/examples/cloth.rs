@@ -74,7 +74,8 @@ fn run() -> Result<(), String> {
     let (mut iters, mut contacts, mut in_zones, mut rounds, mut worst) =
         (0u64, 0usize, 0usize, 0u32, 0.0f64);
     let mut intersections = 0;
-    let (mut builds, mut reuses, mut node_pairs, mut leaf_tests) = (0u64, 0u64, 0u64, 0u64);
+    let (mut builds, mut reuses, mut one_shots) = (0u64, 0u64, 0u64);
+    let (mut node_pairs, mut leaf_tests) = (0u64, 0u64);
     let (mut repeats, mut proved, mut from_proximity) = (0u64, 0u64, 0u64);
     let (mut fit_time, mut query_time, mut candidates) = (0.0, 0.0, 0u64);
     for k in 0..steps {
@@ -93,6 +94,7 @@ fn run() -> Result<(), String> {
         intersections += st.intersections;
         builds += st.detection.candidate_builds;
         reuses += st.detection.candidate_reuses;
+        one_shots += st.detection.proximity_one_shots;
         repeats += st.detection.continuous_repeats;
         from_proximity += st.detection.continuous_from_proximity;
         proved += st.proved_clear as u64;
@@ -140,7 +142,7 @@ fn run() -> Result<(), String> {
         rounds as f64 / s
     );
     println!(
-        "candidate sets built {builds}, queries answered from a cached set {reuses}, continuous repeats re-tested around changed vertices {repeats}, continuous queries from the proximity answer {from_proximity}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
+        "candidate sets built {builds}, queries answered from a cached set {reuses}, proximity queries answered one-shot {one_shots}, continuous repeats re-tested around changed vertices {repeats}, continuous queries from the proximity answer {from_proximity}; per step: node pairs {:.0}, leaf pairs tested by proximity and continuous queries {:.0}",
         node_pairs as f64 / s,
         leaf_tests as f64 / s
     );

@@ -57,6 +57,10 @@ pub struct FrameStats {
     pub candidate_builds: u64,
     /// Coherent queries: queries answered from a cached candidate set (reused work).
     pub candidate_reuses: u64,
+    /// Coherent queries: proximity queries answered one-shot, without the
+    /// candidate set, after sets went stale young (fresh work;
+    /// [`crate::detect::coherent`], "Sets that die young").
+    pub proximity_one_shots: u64,
     /// Coherent queries: cached candidate element pairs examined (those near
     /// enough to come within the query's distance, and every pair within the
     /// set's own reach).

@@ -319,8 +319,12 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
     let reach = sim.options().contact.detection_distance();
     let mut coherent = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
     let mut thin = SelfQueries::new(mesh.clone(), 0.01 * e).unwrap();
+    // Proximity alone, thin skin: its sets die young, so it answers one-shot
+    // in streaks between them (module doc of `coherent`).
+    let mut alone = SelfQueries::new(mesh.clone(), 0.01 * e).unwrap();
     let mut fresh = BvhDetector::new(mesh.clone(), Method::Bvh, reach);
     let (mut stats, mut thin_stats) = (FrameStats::default(), FrameStats::default());
+    let mut alone_stats = FrameStats::default();
     let (mut contacts, mut impacts) = (0, 0);
     let mut x0 = sim.positions().to_vec();
     for frame in 0..240 {
@@ -331,6 +335,8 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         assert_eq!(near, want, "frame {frame}");
         let near = thin.proximity(&x0, reach, &mut thin_stats).unwrap();
         assert_eq!(near, want, "frame {frame}, thin skin");
+        let near = alone.proximity(&x0, reach, &mut alone_stats).unwrap();
+        assert_eq!(near, want, "frame {frame}, proximity alone");
         contacts += near.vertex_triangle.len() + near.edge_edge.len();
         // Every tenth frame also a step five times as long, which the
         // proximity answer at x0 covers less of (the step's motion culls less).
@@ -368,8 +374,8 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
     }
     for (name, s) in [("default", &stats), ("thin", &thin_stats)] {
         eprintln!(
-            "coherent, {name} skin: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} leaf tests",
-            s.candidate_builds, s.candidate_reuses, s.proximity_tests
+            "coherent, {name} skin: {contacts} contacts, {impacts} impacts, {} builds, {} reuses, {} one-shot proximity answers, {} leaf tests",
+            s.candidate_builds, s.candidate_reuses, s.proximity_one_shots, s.proximity_tests
         );
         assert!(s.candidate_builds > 1 && s.candidate_reuses > s.candidate_builds);
         // Each frame's thinnest query starts where the proximity was taken
@@ -377,6 +383,12 @@ fn coherent_queries_equal_fresh_ones_on_a_simulated_sequence() {
         // its reach.
         assert_eq!(s.continuous_from_proximity, 240 + 24, "{name}");
     }
+    let s = &alone_stats;
+    eprintln!(
+        "proximity alone, thin skin: {} builds, {} reuses, {} one-shot answers",
+        s.candidate_builds, s.candidate_reuses, s.proximity_one_shots
+    );
+    assert!(s.proximity_one_shots > 0 && s.candidate_builds > 1 && s.candidate_reuses > 0);
     assert!(
         contacts > 0 && impacts > 0,
         "nothing came near: nothing tested"
@@ -450,10 +462,42 @@ fn translation_reuses_the_candidate_set() {
     let mut thin = BvhDetector::new(m.clone(), Method::Bvh, 0.5 * d);
     assert_eq!(near, thin.detect(&jitter).unwrap().proximity);
     assert_eq!((s.candidate_builds, s.candidate_reuses), (1, 2));
-    // ... and the next query at `d` rebuilds first.
+    // ... and the next query at `d` needs a new set. The set served only
+    // two queries, so that query and the next three are answered one-shot
+    // (the same contacts), then a new set is built, and used again.
+    let counts = |s: &FrameStats| {
+        (
+            s.candidate_builds,
+            s.candidate_reuses,
+            s.proximity_one_shots,
+        )
+    };
     let again = q.proximity(&jitter, d, &mut s).unwrap();
     assert_eq!(again, shaken);
-    assert_eq!((s.candidate_builds, s.candidate_reuses), (2, 2));
+    assert_eq!(counts(&s), (1, 2, 1));
+    for _ in 0..3 {
+        assert_eq!(q.proximity(&jitter, d, &mut s).unwrap(), shaken);
+    }
+    assert_eq!(counts(&s), (1, 2, 4));
+    assert_eq!(q.proximity(&jitter, d, &mut s).unwrap(), shaken);
+    assert_eq!(counts(&s), (2, 2, 4));
+    assert_eq!(q.proximity(&jitter, d, &mut s).unwrap(), shaken);
+    assert_eq!(counts(&s), (2, 3, 4));
+    // A continuous query from a one-shot answer's positions reads it.
+    let mut q = SelfQueries::new(m.clone(), 0.25 * e).unwrap();
+    let mut s = FrameStats::default();
+    q.proximity(&x, d, &mut s).unwrap();
+    for _ in 0..2 {
+        q.proximity(&jitter, d, &mut s).unwrap();
+    }
+    assert_eq!(counts(&s), (1, 1, 1));
+    let step: Vec<DVec3> = jitter
+        .iter()
+        .map(|p| *p + DVec3::new(0.0, 0.0, 0.1 * e))
+        .collect();
+    let got = q.continuous(&jitter, &step, 0.2 * d, &mut s).unwrap();
+    assert_eq!(got, fresh.continuous(&jitter, &step, 0.2 * d).unwrap());
+    assert_eq!(s.continuous_from_proximity, 1);
 }
 
 /// The continuous stage's rounds: a query repeated from the same start with

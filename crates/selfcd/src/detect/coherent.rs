@@ -43,6 +43,17 @@
 //! continuous query's thinner distance leaves it a wider allowance) keep
 //! using the set meanwhile.
 //!
+//! **Sets that die young.** A rebuild costs several queries (it gathers
+//! every pair within `R` and sorts them), so a set pays only when it serves
+//! many. Where the mesh moves faster than the skin allows (a falling,
+//! crumpling cloth goes stale every four or five steps) a proximity query
+//! that needs a new set after one that served fewer than [`REUSE_MIN`]
+//! queries answers one-shot instead ([`super::proximity_contacts`]: the
+//! top-down hierarchy with its certificates, the same contacts to the bit)
+//! and records that answer for the continuous queries as a set-based one
+//! would. It tries a set again after a streak of such answers, twice as
+//! long after each set that dies young too (at most [`SKIP_MOST`]).
+//!
 //! **Continuous queries after a proximity query.** A simulator asks for
 //! the pairs within `reach` at `x0`, then for the pairs that come within a
 //! thinner `thickness` over the step `x0 -> x1`. Taken as a set without
@@ -209,6 +220,13 @@ impl Candidates {
         let a = (self.reach + self.skin - reach) * (1.0 - SLACK.1)
             - SLACK.0 * self.magnitude.max(magnitude);
         (a > 0.0).then_some(a)
+    }
+
+    /// The least [`allowance`](Self::allowance) over the positions `ends`.
+    fn allowance_at(&self, ends: &[&[DVec3]], reach: f64) -> Option<f64> {
+        ends.iter()
+            .map(|x| self.allowance(reach, magnitude(x)))
+            .try_fold(f64::INFINITY, |a, b| b.map(|b| a.min(b)))
     }
 
     /// Distance at the reference beyond which a candidate of spread `s`
@@ -589,6 +607,7 @@ pub struct SelfQueries {
     start_boxes: Vec<Aabb>,
     skin: f64,
     max_contacts: usize,
+    rebuilds: Rebuilds,
 }
 
 /// Default skin of the candidate set, in mean rest edge lengths: a pair's
@@ -597,6 +616,60 @@ pub struct SelfQueries {
 /// steps (instructions, against 0.25 at the same rebuild share): 0.15 +0.6%,
 /// 0.2 +5%, 0.3 +4%, 0.4 +14%.
 pub const DEFAULT_SKIN: f64 = 0.25;
+
+/// A candidate set that served fewer queries than this before a proximity
+/// query needed a new one died young (module doc). On the 20k centre cloth
+/// sets served 3-4 queries, and a rebuild cost about three one-shot
+/// queries while a query from the set saved a tenth of one
+/// (BENCHMARKS.md, twenty-ninth landing).
+pub const REUSE_MIN: u32 = 8;
+/// One-shot proximity answers after the first set that died young, before
+/// a set is tried again; doubled after each further one, up to [`SKIP_MOST`].
+const SKIP_FIRST: u32 = 4;
+/// The longest streak of one-shot proximity answers between two sets.
+pub const SKIP_MOST: u32 = 64;
+
+/// When a proximity query that needs a new candidate set builds it and
+/// when it answers one-shot instead (module doc, "Sets that die young").
+#[derive(Debug, Clone, Copy, Default)]
+struct Rebuilds {
+    /// Queries answered from the current set since it was built (None
+    /// before the first set).
+    served: Option<u32>,
+    /// One-shot answers in the current streak.
+    skipped: u32,
+    /// The current streak's length (0: none).
+    streak: u32,
+}
+
+impl Rebuilds {
+    /// Should a proximity query that needs a new set answer one-shot?
+    fn skip(&mut self) -> bool {
+        if self.served.is_none_or(|n| n >= REUSE_MIN) {
+            (self.skipped, self.streak) = (0, 0);
+            return false;
+        }
+        if self.streak == 0 {
+            self.streak = SKIP_FIRST;
+        } else if self.skipped >= self.streak {
+            // A new set is tried; the next streak, if it dies young too, is longer.
+            (self.skipped, self.streak) = (0, (2 * self.streak).min(SKIP_MOST));
+            return false;
+        }
+        self.skipped += 1;
+        true
+    }
+
+    /// A set was built.
+    fn built(&mut self) {
+        self.served = Some(0);
+    }
+
+    /// A query was answered from the set.
+    fn served(&mut self) {
+        self.served = self.served.map(|n| n.saturating_add(1));
+    }
+}
 
 impl SelfQueries {
     /// The default skin for `mesh`: [`DEFAULT_SKIN`] mean rest edge lengths.
@@ -625,6 +698,7 @@ impl SelfQueries {
             start_boxes: Vec::new(),
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
+            rebuilds: Rebuilds::default(),
         })
     }
 
@@ -713,11 +787,20 @@ impl SelfQueries {
             build_tests: c.primitive_tests,
         };
         self.uncovered_tests.clear();
+        self.rebuilds.built();
         s.candidate_builds += 1;
         s.node_pairs += c.node_pairs;
         s.proximity_tests += c.primitive_tests;
         s.traverse_time += t0.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// The candidate set's allowance for a query within `reach` at `ends`,
+    /// or None when the query needs a new set: the set does not reach that
+    /// far, or is stale for the query's kind.
+    fn reusable(&self, ends: &[&[DVec3]], reach: f64) -> Option<f64> {
+        let stale = self.stale_for(Kind::new(reach, ends.len()));
+        (!stale).then(|| self.candidates.allowance_at(ends, reach))?
     }
 
     /// True when the last query of `kind` since the set was built tested
@@ -747,22 +830,17 @@ impl SelfQueries {
         reach: f64,
         s: &mut FrameStats,
     ) -> Result<(f64, Kind)> {
-        let fresh = |c: &Candidates| {
-            ends.iter()
-                .map(|x| c.allowance(reach, magnitude(x)))
-                .try_fold(f64::INFINITY, |a, b| b.map(|b| a.min(b)))
-        };
         let kind = Kind::new(reach, ends.len());
-        let stale = self.stale_for(kind);
-        let allowance = match fresh(&self.candidates).filter(|_| !stale) {
+        let allowance = match self.reusable(ends, reach) {
             Some(a) => {
                 s.candidate_reuses += 1;
+                self.rebuilds.served();
                 a
             }
             None => {
                 let reach = reach.max(self.candidates.reach);
                 self.rebuild(ends[0], reach, s)?;
-                fresh(&self.candidates).ok_or_else(|| {
+                self.candidates.allowance_at(ends, reach).ok_or_else(|| {
                     Error::InvalidParameter(format!("distance {reach} too large to query"))
                 })?
             }
@@ -840,6 +918,9 @@ impl SelfQueries {
         self.mesh.check_positions(x)?;
         check_thickness(thickness)?;
         self.near.clear();
+        if self.reusable(&[x], thickness).is_none() && self.rebuilds.skip() {
+            return self.proximity_one_shot(x, thickness, s);
+        }
         let (allowance, kind) = self.prepare(&[x], thickness, s)?;
         if !self.all_covered(allowance) {
             self.fit_static(x, s);
@@ -888,6 +969,28 @@ impl SelfQueries {
         }
         let out = collect_proximity(fresh).merge(from_set);
         s.proximity_contacts = (out.vertex_triangle.len() + out.edge_edge.len()) as u64;
+        self.near.set_answer(&mesh, x, thickness, &out);
+        s.traverse_time += t0.elapsed().as_secs_f64();
+        Ok(out)
+    }
+
+    /// [`proximity`](Self::proximity) answered one-shot, without the
+    /// candidate set (module doc, "Sets that die young"); the answer is
+    /// recorded for the continuous queries all the same.
+    fn proximity_one_shot(
+        &mut self,
+        x: &[DVec3],
+        thickness: f64,
+        s: &mut FrameStats,
+    ) -> Result<ProximityContacts> {
+        let t0 = Instant::now();
+        let (out, mut c) = super::proximity_contacts(&self.mesh, x, thickness, self.max_contacts)?;
+        s.proximity_tests += c.primitive_tests;
+        c.primitive_tests = 0;
+        c.add_to(s);
+        s.proximity_one_shots += 1;
+        s.proximity_contacts = (out.vertex_triangle.len() + out.edge_edge.len()) as u64;
+        let mesh = self.mesh.clone();
         self.near.set_answer(&mesh, x, thickness, &out);
         s.traverse_time += t0.elapsed().as_secs_f64();
         Ok(out)
@@ -1105,5 +1208,42 @@ impl SelfQueries {
         s.contacts = pairs.len() as u64;
         s.traverse_time += t0.elapsed().as_secs_f64();
         Ok(pairs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Proximity queries that need a new set after sets that die young
+    /// answer one-shot in streaks of 4, 8, 16, ... up to `SKIP_MOST`, a set
+    /// tried between streaks; a set that served `REUSE_MIN` queries ends it.
+    #[test]
+    fn one_shot_streaks_double_while_sets_die_young() {
+        let mut r = Rebuilds::default();
+        assert!(!r.skip(), "the first query builds a set");
+        r.built();
+        let mut streaks = Vec::new();
+        for _ in 0..7 {
+            r.served();
+            let mut streak = 0;
+            while r.skip() {
+                streak += 1;
+            }
+            streaks.push(streak);
+            r.built();
+        }
+        assert_eq!(streaks, [4, 8, 16, 32, 64, 64, 64]);
+        for _ in 0..REUSE_MIN {
+            r.served();
+        }
+        assert!(!r.skip(), "a set that served enough is rebuilt");
+        r.built();
+        r.served();
+        let mut streak = 0;
+        while r.skip() {
+            streak += 1;
+        }
+        assert_eq!(streak, SKIP_FIRST, "and the streaks start over");
     }
 }
