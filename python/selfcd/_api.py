@@ -274,7 +274,8 @@ class SelfQueries:
     def intersections(self, positions: npt.ArrayLike, cones: bool = True) -> np.ndarray:
         """Intersecting non-adjacent face pairs, (k, 2) int64, i < j, sorted; exact.
 
-        `cones=False` culls by boxes only (same answer, more work)."""
+        `cones=True` runs the one-shot query (`self_intersections`'s certificates);
+        `cones=False` the kept hierarchy culling by boxes only (same answer, more work)."""
         return self._inner.intersections(self.mesh._positions(positions), bool(cones))
 
     def proximity(self, positions: npt.ArrayLike, thickness: float) -> dict[str, np.ndarray]:

@@ -1187,9 +1187,14 @@ impl SelfQueries {
         Impacts::from_items(found)
     }
 
-    /// Intersecting non-adjacent triangle pairs at `x`, sorted, with the
-    /// conservative culling of `bvh-cones-contour` (or boxes only when
-    /// `cones` is false). Adds its work to `s`.
+    /// Intersecting non-adjacent triangle pairs at `x`, sorted. With
+    /// `cones`, the one-shot query ([`crate::bvh::topdown::self_intersections`]:
+    /// its top-down hierarchy, split only where the cone and contour
+    /// certificates fail), which on the centre cloth took a third of the time
+    /// of the kept hierarchy's refit and traversal at 80k triangles and
+    /// under half at 20k (BENCHMARKS.md, twenty-ninth landing); without,
+    /// the kept hierarchy culling by boxes only. The same pairs either way.
+    /// Adds its work to `s`.
     pub fn intersections(
         &mut self,
         x: &[DVec3],
@@ -1197,12 +1202,20 @@ impl SelfQueries {
         s: &mut FrameStats,
     ) -> Result<Vec<[u32; 2]>> {
         self.mesh.check_positions(x)?;
+        if cones {
+            let t0 = Instant::now();
+            let (pairs, c) = crate::bvh::topdown::self_intersections(&self.mesh, x);
+            c.add_to(s);
+            s.contacts = pairs.len() as u64;
+            s.traverse_time += t0.elapsed().as_secs_f64();
+            return Ok(pairs);
+        }
         self.fit_static(x, s);
         let t0 = Instant::now();
         let mesh = &*self.mesh;
         let opts = TraverseOptions {
-            cones,
-            contour: cones,
+            cones: false,
+            contour: false,
             gap: 0.0,
         };
         let (mut pairs, c): (Vec<[u32; 2]>, Counters) =
