@@ -248,7 +248,7 @@ fn half_diagonal(b: &Aabb) -> f64 {
 /// of this sum.
 #[inline]
 fn with_rounding(r: f64, b: &Aabb) -> f64 {
-    let size = b.min.abs().max(b.max.abs()).max_element();
+    let size = b.magnitude();
     (r + 1e-15 * size) * (1.0 + 1e-12)
 }
 

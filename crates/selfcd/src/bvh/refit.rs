@@ -242,7 +242,7 @@ impl Bvh {
     /// ([`carry_error`] of the root box's largest coordinate), or None.
     pub fn slab_error(&self) -> Option<f64> {
         let root = self.boxes.last()?;
-        carry_error(root.min.abs().max(root.max.abs()).max_element())
+        carry_error(root.magnitude())
     }
 
     /// Fills `values` (one per node) bottom-up: `leaf(t)` for leaf `t`, the

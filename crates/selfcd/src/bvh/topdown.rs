@@ -1009,8 +1009,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// the box), with margins far above the rounding of the projection and
     /// of the contour's distances (a few ulps of the box's extent).
     fn clearance(&self, bbox: &Aabb) -> f64 {
-        let magnitude = bbox.min.abs().max(bbox.max.abs()).max_element();
-        let reach = self.gap + APART_SLACK * magnitude;
+        let reach = self.gap + APART_SLACK * bbox.magnitude();
         reach * (1.0 + 1e-9) + 1e-9 * (bbox.max - bbox.min).element_sum()
     }
 

@@ -68,6 +68,13 @@ impl Aabb {
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
 
+    /// The largest coordinate magnitude of the box's corners: the scale the
+    /// rounding slacks are taken against ([`super::magnitude`] of its points).
+    #[inline]
+    pub fn magnitude(&self) -> f64 {
+        self.min.abs().max(self.max.abs()).max_element()
+    }
+
     /// Centre of the box.
     #[inline]
     pub fn center(&self) -> DVec3 {

@@ -222,8 +222,7 @@ fn triangles_limit(a: &[[DVec3; 3]; 2], b: &[[DVec3; 3]; 2], thickness: f64) -> 
 /// coordinate magnitude.
 #[inline]
 fn axis_limit(all: &Aabb, thickness: f64) -> f64 {
-    let magnitude = all.min.abs().max(all.max.abs()).max_element();
-    thickness + AXIS_MARGIN * (all.max - all.min).element_sum() + APART_SLACK * magnitude
+    thickness + AXIS_MARGIN * (all.max - all.min).element_sum() + APART_SLACK * all.magnitude()
 }
 
 /// True when the stencil's four points are never coplanar during the motion,

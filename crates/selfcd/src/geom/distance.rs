@@ -25,14 +25,7 @@ pub(crate) const APART_SLACK: f64 = 1e-9;
 #[inline]
 pub fn hulls_apart(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
     let (ba, bb) = (Aabb::from_points(a), Aabb::from_points(b));
-    let mag = ba
-        .min
-        .abs()
-        .max(ba.max.abs())
-        .max(bb.min.abs())
-        .max(bb.max.abs())
-        .max_element();
-    !ba.within(&bb, gap + APART_SLACK * mag)
+    !ba.within(&bb, gap + APART_SLACK * ba.magnitude().max(bb.magnitude()))
 }
 
 /// [`hulls_apart`] for one query: `gap` and the slack fixed once, from the

@@ -152,7 +152,7 @@ mod tests {
             let (u, w, v) = (unit(&mut rng), unit(&mut rng), unit(&mut rng));
             let (bt, bs) = (Aabb::from_points(&t), Aabb::from_points(&s));
             let b = bt.union(&bs);
-            let err = carry_error(b.min.abs().max(b.max.abs()).max_element()).unwrap();
+            let err = carry_error(b.magnitude()).unwrap();
             // A parent of the two triangles, as `Bvh::fit_slabs` makes it.
             let (st, ss) = (Slab::of_corners(u, &t), Slab::of_corners(w, &s));
             let carried = st.carry(u, &bt, v).union(&ss.carry(w, &bs, v));
