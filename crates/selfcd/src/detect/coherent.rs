@@ -830,8 +830,21 @@ impl SelfQueries {
         reach: f64,
         s: &mut FrameStats,
     ) -> Result<(f64, Kind)> {
+        let reusable = self.reusable(ends, reach);
+        self.prepare_from(ends, reach, reusable, s)
+    }
+
+    /// [`prepare`](Self::prepare) with the set's [`reusable`](Self::reusable)
+    /// allowance already decided.
+    fn prepare_from(
+        &mut self,
+        ends: &[&[DVec3]],
+        reach: f64,
+        reusable: Option<f64>,
+        s: &mut FrameStats,
+    ) -> Result<(f64, Kind)> {
         let kind = Kind::new(reach, ends.len());
-        let allowance = match self.reusable(ends, reach) {
+        let allowance = match reusable {
             Some(a) => {
                 s.candidate_reuses += 1;
                 self.rebuilds.served();
@@ -918,10 +931,11 @@ impl SelfQueries {
         self.mesh.check_positions(x)?;
         check_thickness(thickness)?;
         self.near.clear();
-        if self.reusable(&[x], thickness).is_none() && self.rebuilds.skip() {
+        let reusable = self.reusable(&[x], thickness);
+        if reusable.is_none() && self.rebuilds.skip() {
             return self.proximity_one_shot(x, thickness, s);
         }
-        let (allowance, kind) = self.prepare(&[x], thickness, s)?;
+        let (allowance, kind) = self.prepare_from(&[x], thickness, reusable, s)?;
         if !self.all_covered(allowance) {
             self.fit_static(x, s);
         }

@@ -397,11 +397,11 @@ pub fn for_each_owned_near(
     }
     let tris = mesh.triangles();
     let (ta, tb) = (&tris[a as usize], &tris[b as usize]);
-    // Built in place: `map` builds a temporary and copies it in 16-byte
-    // moves across the 24-byte corners, whose reads then stall on store
-    // forwarding (5% of the one-shot on a crumpled cloth; BENCHMARKS.md).
-    let corners = |t: &[u32; 3]| [x[t[0] as usize], x[t[1] as usize], x[t[2] as usize]];
-    let (pa, pb) = (corners(ta), corners(tb));
+    // Built in place ([`Mesh::corners`]): `array::map` builds a temporary
+    // and copies it in 16-byte moves across the 24-byte corners, whose
+    // reads then stall on store forwarding (5% of the one-shot on a
+    // crumpled cloth; BENCHMARKS.md).
+    let (pa, pb) = (mesh.corners(x, a as usize), mesh.corners(x, b as usize));
     owned_vertices_near(hulls, (ta, &pa, oa), (tb, &pb, b), &mut f);
     owned_vertices_near(hulls, (tb, &pb, ob), (ta, &pa, a), &mut f);
     if oa & 0o70 == 0 || ob & 0o70 == 0 {

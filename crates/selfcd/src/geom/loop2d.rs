@@ -263,6 +263,8 @@ pub struct LoopScratch {
     order: Vec<u32>,
     /// Start of each bucket in `order` (one more entry than buckets).
     start: Vec<u32>,
+    /// The edges moved to magnitude about 1 ([`ends_clear_of_edges`]).
+    scaled: Vec<Seg>,
 }
 
 /// Empty slot of the vertex table.
@@ -691,26 +693,27 @@ pub fn ends_clear_of_edges(segs: &[Seg], clearance: f64, scratch: &mut LoopScrat
     } else {
         0
     };
-    let scaled: Vec<Seg> = segs
-        .iter()
-        .map(|s| Seg {
-            p: s.p.map(|p| p.map(|x| mul_pow2(x, k))),
-            v: s.v,
-        })
-        .collect();
+    let mut scaled = std::mem::take(&mut scratch.scaled);
+    scaled.clear();
+    scaled.extend(segs.iter().map(|s| Seg {
+        p: s.p.map(|p| p.map(|x| mul_pow2(x, k))),
+        v: s.v,
+    }));
     let clearance = mul_pow2(clearance, k);
     // An end of one edge against the other edge, where it is not an end of it.
     let apart = |a: &Seg, b: &Seg| {
         (0..2).all(|i| b.v.contains(&a.v[i]) || point_seg_distance(a.p[i], b) > clearance)
     };
-    pairs_clear(
+    let clear = pairs_clear(
         &scaled,
         None,
         None,
         clearance,
         |i, j| apart(&scaled[i], &scaled[j]) && apart(&scaled[j], &scaled[i]),
         scratch,
-    )
+    );
+    scratch.scaled = scaled;
+    clear
 }
 
 /// Is the projected contour one simple counter-clockwise loop at every time
