@@ -6,7 +6,7 @@
 //! scene: two-corners | corner | center (default center); n: vertices per side
 //! (default 11); steps: timed steps (default 600); method: detection method
 //! (default bvh-cones-contour); warmup: steps run before timing (default 0).
-//! `CLOTH_PRECONDITIONER=block-jacobi|multigrid` overrides the preconditioner
+//! `CLOTH_PRECONDITIONER=block-jacobi|multigrid|two-level` overrides the preconditioner
 //! the simulator picks by size (`Preconditioner::for_vertices`). The last
 //! line is a checksum of the final positions' bits: the same for any number
 //! of threads.
@@ -61,6 +61,7 @@ fn run() -> Result<(), String> {
     opts.pcg.preconditioner = match std::env::var("CLOTH_PRECONDITIONER").as_deref() {
         Ok("block-jacobi") => Preconditioner::BlockJacobi,
         Ok("multigrid") => Preconditioner::Multigrid,
+        Ok("two-level") => Preconditioner::TwoLevel,
         Err(_) => opts.pcg.preconditioner,
         Ok(other) => return Err(format!("unknown preconditioner {other:?}")),
     };

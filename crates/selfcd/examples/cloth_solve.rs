@@ -1,10 +1,11 @@
-//! Times the cloth's implicit solve alone, block-Jacobi against multigrid, on
+//! Times the cloth's implicit solve alone, block-Jacobi against the multigrid
+//! V-cycle and the two-level form, on
 //! the same system in one process.
 //!
 //! ```text
 //! cargo run --release -p selfcd --example cloth_solve -- [scene] [n] [warmup] [repeat] [which]
 //! ```
-//! which: block-jacobi | multigrid | both (default): the preconditioners
+//! which: block-jacobi | multigrid | two-level | all (default): the preconditioners
 //! timed. One alone, with the repeat at 1 and 3, gives the instructions of
 //! one solve under callgrind as the difference over 2.
 //! Steps `scene` (default center) at `n x n` vertices (default 101) for
@@ -67,11 +68,16 @@ fn run() -> Result<(), String> {
     let n: usize = arg(&args, 1, 101)?;
     let warmup: usize = arg(&args, 2, 30)?;
     let repeat: usize = arg(&args, 3, 10)?;
-    let which: String = arg(&args, 4, "both".to_string())?;
+    let which: String = arg(&args, 4, "all".to_string())?;
     let kinds = match which.as_str() {
         "block-jacobi" => vec![Preconditioner::BlockJacobi],
         "multigrid" => vec![Preconditioner::Multigrid],
-        "both" => vec![Preconditioner::BlockJacobi, Preconditioner::Multigrid],
+        "two-level" => vec![Preconditioner::TwoLevel],
+        "all" => vec![
+            Preconditioner::BlockJacobi,
+            Preconditioner::Multigrid,
+            Preconditioner::TwoLevel,
+        ],
         other => return Err(format!("unknown preconditioner {other:?}")),
     };
     let mut sim = scene
@@ -147,7 +153,7 @@ fn run() -> Result<(), String> {
     if kinds.len() < 2 {
         return Ok(());
     }
-    let (build, mut mg) = min_time(repeat, || Multigrid::new(&system.a));
+    let (build, mut mg) = min_time(repeat, || Multigrid::new(&system.a, true));
     let (update, ()) = min_time(repeat, || mg.update(&system.a));
     println!(
         "multigrid: {} levels {:?}, build {:.3} ms, update per step {:.3} ms",

@@ -4,7 +4,8 @@
 //! - [`springs`]: stretch, shear and bend springs; force and PSD Jacobian of one spring.
 //! - [`model`]: [`Cloth`] (masses from rest areas, gravity, pins) and [`Material`].
 //! - [`matrix`]: the flat sparse 3x3-block matrix and deterministic parallel kernels.
-//! - [`multigrid`]: the aggregation multigrid preconditioner of the solve.
+//! - [`multigrid`]: the aggregation multigrid of the solve's preconditioners
+//!   (a V-cycle, or the coarse part of the two-level form).
 //! - [`solver`]: backward Euler system and the filtered PCG (Baraff & Witkin 1998).
 //! - [`response`]: self-contact in the solve, impulses, continuous collisions, and the end-of-step correction.
 //! - [`sim`]: [`Simulation`], stepping a cloth with a detector.

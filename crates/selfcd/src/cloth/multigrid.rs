@@ -32,6 +32,17 @@
 //! gradients around it stay in double precision. Rounding makes the cycle
 //! symmetric to about 1e-7 relative, far below the solve's tolerance.
 //!
+//! Additive form. [`Multigrid::coarse_correct`] gives the coarse part of
+//! the additive two-level preconditioner `B = D^-1 + P C P^T`
+//! ([`super::solver::Preconditioner::TwoLevel`]), `C` one V-cycle of the
+//! coarser levels: no work on the finest level but a restriction and a
+//! prolongation, which the conjugate gradients fuse into their own passes
+//! (`D^-1` is their block Jacobi). Both terms are symmetric positive
+//! (semi-)definite, so `B` is a valid preconditioner. Against the V-cycle
+//! it gives up the finest level's smoothing, about two matrix products an
+//! iteration; on the crumpling centre scene at 101 x 101 it needed about
+//! as many iterations (BENCHMARKS.md, thirtieth landing).
+//!
 //! Every kernel is per row over fixed chunks ([`for_chunks`]), and the
 //! aggregation is sequential, so the result has the same bits for any number
 //! of threads.
@@ -41,7 +52,7 @@
 //! piecewise-constant coarse spaces bound it: a W-cycle, or three smoothing
 //! sweeps, still needs about 21 at 101 x 101.
 
-use super::matrix::{for_chunks, LinkMatrix, Sym3};
+use super::matrix::{dot, for_chunks, LinkMatrix, Sym3};
 use crate::mesh::Csr;
 use glam::{DMat3, DVec3, Mat3A, Vec3, Vec3A};
 
@@ -338,9 +349,14 @@ pub struct Multigrid {
     /// The levels hold `A / scale` (a power of two near `A`'s largest
     /// diagonal entry), so single precision holds them at any mesh scale.
     scale: f64,
-    /// The finest level's matrix and vectors.
-    fine: Compact,
+    /// The finest level's matrix (filled only for the V-cycle,
+    /// [`Multigrid::apply`]) and vectors.
+    fine: Option<Compact>,
     work: Work,
+    /// The coarse part of the additive form: `P^T r`, then `C P^T r`, in
+    /// double precision and `A`'s units ([`Multigrid::coarse_correct`]).
+    restricted: Vec<DVec3>,
+    correction: Vec<DVec3>,
     levels: Vec<Level>,
     /// Lower Cholesky factor (row-major, dense) of the coarsest matrix, when it is small and SPD.
     dense: Option<Vec<f64>>,
@@ -348,8 +364,10 @@ pub struct Multigrid {
 
 impl Multigrid {
     /// Builds the levels for `a`'s link pattern, aggregating by `a`'s values,
-    /// and fills them from `a`.
-    pub fn new(a: &LinkMatrix) -> Multigrid {
+    /// and fills them from `a`. With `fine` false the finest level's
+    /// single-precision copy is not kept: the hierarchy then serves only
+    /// [`Multigrid::coarse_correct`].
+    pub fn new(a: &LinkMatrix, fine: bool) -> Multigrid {
         let mut levels: Vec<Level> = Vec::new();
         loop {
             let fine = levels.last().map_or(a, |l| &l.a);
@@ -375,21 +393,25 @@ impl Multigrid {
                 work: Work::new(count),
             });
         }
+        let coarse = levels.first().map_or(0, |l| l.a.rows());
         let mut mg = Multigrid {
             links: a.link.len(),
             scale: 1.0,
-            fine: Compact::new(a),
+            fine: fine.then(|| Compact::new(a)),
             work: Work::new(a.rows()),
             levels,
             dense: None,
+            restricted: vec![DVec3::ZERO; coarse],
+            correction: vec![DVec3::ZERO; coarse],
         };
         mg.update(a);
         mg
     }
 
-    /// True when this hierarchy was built for `a`'s pattern (same rows and links).
-    pub fn fits(&self, a: &LinkMatrix) -> bool {
-        self.work.rhs.len() == a.rows() && self.links == a.link.len()
+    /// True when this hierarchy was built for `a`'s pattern (same rows and
+    /// links), with the finest level's copy when `fine`.
+    pub fn fits(&self, a: &LinkMatrix, fine: bool) -> bool {
+        self.work.rhs.len() == a.rows() && self.links == a.link.len() && self.fine.is_some() == fine
     }
 
     /// Number of levels, the finest included.
@@ -412,7 +434,9 @@ impl Multigrid {
             .map(|d| d.x_axis.x.max(d.y_axis.y).max(d.z_axis.z));
         self.scale = power_of_two(largest.fold(0.0, f64::max));
         let scale = self.scale;
-        self.fine.fill(a, scale);
+        if let Some(fine) = self.fine.as_mut() {
+            fine.fill(a, scale);
+        }
         for k in 0..self.levels.len() {
             let (done, rest) = self.levels.split_at_mut(k);
             let fine = done.last().map_or(a, |l| &l.a);
@@ -429,19 +453,80 @@ impl Multigrid {
     /// `z = B r`: one V-cycle, in single precision.
     /// The cycle is linear, so it runs on `r / rho` (rho a power of two near
     /// `r`'s largest entry) and the result is scaled back.
+    ///
+    /// # Panics
+    /// If the hierarchy was built without its finest level (`new(a, false)`).
     pub fn apply(&mut self, r: &[DVec3], z: &mut [DVec3]) {
-        let rho = power_of_two(r.iter().fold(0.0, |m, v| m.max(v.abs().max_element())));
+        let rho = power_of_two(largest_entry(r));
         let w = &mut self.work;
         for (f, d) in w.rhs.iter_mut().zip(r) {
             *f = (*d / rho).as_vec3().into();
         }
-        let fine = Grid { m: &self.fine, w };
-        cycle(fine, &mut self.levels, self.dense.as_deref());
+        let m = self
+            .fine
+            .as_ref()
+            .expect("a V-cycle needs the finest level");
+        cycle(Grid { m, w }, &mut self.levels, self.dense.as_deref());
         let back = rho / self.scale;
         for (d, f) in z.iter_mut().zip(&self.work.sol) {
             *d = Vec3::from(*f).as_dvec3() * back;
         }
     }
+
+    /// The coarse part of the additive two-level preconditioner (module
+    /// doc): computes `e = P C P^T r`, read per vertex through
+    /// [`Multigrid::correction`], and returns `r . e`. `C` runs in single
+    /// precision on `P^T r / rho` (rho a power of two near its largest
+    /// entry); `P^T r`, `C`'s result scaled back and the product are in
+    /// double precision. Zero when there is no coarser level.
+    pub fn coarse_correct(&mut self, r: &[DVec3]) -> f64 {
+        let Some((first, rest)) = self.levels.split_first_mut() else {
+            return 0.0;
+        };
+        let members = &first.coarsening.members;
+        for_chunks(&mut self.restricted, |start, out| {
+            for (k, c) in out.iter_mut().enumerate() {
+                let own = members.row(start + k).iter();
+                *c = own.fold(DVec3::ZERO, |acc, &i| acc + r[i as usize]);
+            }
+            0.0
+        });
+        let rho = power_of_two(largest_entry(&self.restricted));
+        for (f, d) in first.work.rhs.iter_mut().zip(&self.restricted) {
+            *f = (*d / rho).as_vec3().into();
+        }
+        let m = &first.compact;
+        cycle(
+            Grid {
+                m,
+                w: &mut first.work,
+            },
+            rest,
+            self.dense.as_deref(),
+        );
+        let back = rho / self.scale;
+        let sol = &first.work.sol;
+        for_chunks(&mut self.correction, |start, out| {
+            for (k, e) in out.iter_mut().enumerate() {
+                *e = Vec3::from(sol[start + k]).as_dvec3() * back;
+            }
+            0.0
+        });
+        dot(&self.restricted, &self.correction)
+    }
+
+    /// The fine vertices' aggregates and, per aggregate, the coarse
+    /// correction of the last [`Multigrid::coarse_correct`]: vertex `i`'s
+    /// part of `e` is `correction[of[i]]`. `None` without a coarser level.
+    pub fn correction(&self) -> Option<(&[u32], &[DVec3])> {
+        let first = self.levels.first()?;
+        Some((&first.coarsening.of, &self.correction))
+    }
+}
+
+/// The largest absolute coordinate of `v`.
+fn largest_entry(v: &[DVec3]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs().max_element()))
 }
 
 /// One level's operands in a cycle.
@@ -559,7 +644,7 @@ mod tests {
     #[test]
     fn coarsens_to_a_dense_coarsest_level() {
         let a = spring_grid(40, 1);
-        let mg = Multigrid::new(&a);
+        let mg = Multigrid::new(&a, true);
         let sizes = mg.sizes();
         assert!(sizes.len() >= 3, "{sizes:?}");
         assert!(sizes.windows(2).all(|w| w[1] < w[0]), "{sizes:?}");
@@ -571,7 +656,7 @@ mod tests {
     fn galerkin_product_matches_p_transpose_a_p() {
         // (P^T A P) y = P^T (A (P y)) for the first coarsening.
         let a = spring_grid(12, 2);
-        let mg = Multigrid::new(&a);
+        let mg = Multigrid::new(&a, true);
         let level = &mg.levels[0];
         let y = random_vector(level.a.rows(), 3);
         let py: Vec<DVec3> = level.coarsening.of.iter().map(|&c| y[c as usize]).collect();
@@ -592,7 +677,7 @@ mod tests {
     #[test]
     fn cycle_is_symmetric_and_positive_definite() {
         let a = spring_grid(30, 4);
-        let mut mg = Multigrid::new(&a);
+        let mut mg = Multigrid::new(&a, true);
         for seed in 0..4 {
             let (u, v) = (
                 random_vector(a.rows(), 10 + seed),
@@ -607,11 +692,58 @@ mod tests {
         }
     }
 
+    /// `B r` of the additive two-level form: `blockdiag(A)^-1 r + P C P^T r`.
+    fn two_level(mg: &mut Multigrid, a: &LinkMatrix, r: &[DVec3]) -> (Vec<DVec3>, f64) {
+        let coarse = mg.coarse_correct(r);
+        let (of, e) = mg.correction().expect("a coarser level");
+        let z = (0..r.len())
+            .map(|i| a.diag[i].inverse() * r[i] + e[of[i] as usize])
+            .collect();
+        (z, coarse)
+    }
+
+    #[test]
+    fn two_level_is_symmetric_and_positive_definite() {
+        let a = spring_grid(30, 7);
+        let mut mg = Multigrid::new(&a, false);
+        for seed in 0..4 {
+            let (u, v) = (
+                random_vector(a.rows(), 30 + seed),
+                random_vector(a.rows(), 40 + seed),
+            );
+            let ((bu, coarse), (bv, _)) = (two_level(&mut mg, &a, &u), two_level(&mut mg, &a, &v));
+            let (ubv, vbu) = (dot(&u, &bv), dot(&v, &bu));
+            let scale = (dot(&u, &bu) * dot(&v, &bv)).sqrt();
+            assert!((ubv - vbu).abs() <= 1e-5 * scale, "{ubv} vs {vbu}");
+            assert!(dot(&v, &bv) > 0.0 && coarse > 0.0);
+            // The returned product is r . (P C P^T r), the coarse part of u . B u.
+            let jacobi: f64 = (0..u.len())
+                .map(|i| u[i].dot(a.diag[i].inverse() * u[i]))
+                .sum();
+            let whole = dot(&u, &bu);
+            assert!((jacobi + coarse - whole).abs() <= 1e-9 * whole);
+        }
+    }
+
+    #[test]
+    fn two_level_needs_no_finest_copy_and_keeps_it_apart() {
+        let a = spring_grid(20, 8);
+        let mut coarse_only = Multigrid::new(&a, false);
+        let mut full = Multigrid::new(&a, true);
+        assert!(coarse_only.fits(&a, false) && !coarse_only.fits(&a, true));
+        let r = random_vector(a.rows(), 9);
+        // The same coarse levels: the same correction either way.
+        assert_eq!(
+            two_level(&mut coarse_only, &a, &r),
+            two_level(&mut full, &a, &r)
+        );
+    }
+
     #[test]
     fn cycle_reduces_the_energy_norm_error() {
         // One cycle as a stationary iteration: e' = (I - B A) e contracts in the A-norm.
         let a = spring_grid(30, 5);
-        let mut mg = Multigrid::new(&a);
+        let mut mg = Multigrid::new(&a, true);
         let e = random_vector(a.rows(), 6);
         let mut ae = vec![DVec3::ZERO; a.rows()];
         a.mul(&e, &mut ae);
@@ -629,7 +761,7 @@ mod tests {
         // far outside single precision's range.
         let a = spring_grid(20, 9);
         let r = random_vector(a.rows(), 10);
-        let reference = apply(&mut Multigrid::new(&a), &r);
+        let reference = apply(&mut Multigrid::new(&a, true), &r);
         for (ka, kr) in [(-200, 300), (150, -250), (0, -140)] {
             let (sa, sr) = (2f64.powi(ka), 2f64.powi(kr));
             let mut b = a.clone();
@@ -638,7 +770,7 @@ mod tests {
                 .iter_mut()
                 .for_each(|l| *l = Sym3::upper(&(l.mat() * sa)));
             let rs: Vec<DVec3> = r.iter().map(|v| *v * sr).collect();
-            let z = apply(&mut Multigrid::new(&b), &rs);
+            let z = apply(&mut Multigrid::new(&b, true), &rs);
             for (x, y) in z.iter().zip(&reference) {
                 assert_eq!(*x, *y * (sr / sa), "scale 2^{ka}, rhs 2^{kr}");
             }
@@ -652,8 +784,8 @@ mod tests {
         for d in b.diag.iter_mut() {
             *d += DMat3::from_diagonal(DVec3::splat(5.0));
         }
-        let (mut updated, mut fresh) = (Multigrid::new(&a), Multigrid::new(&b));
-        assert!(updated.fits(&b));
+        let (mut updated, mut fresh) = (Multigrid::new(&a, true), Multigrid::new(&b, true));
+        assert!(updated.fits(&b, true));
         updated.update(&b);
         let r = random_vector(a.rows(), 8);
         assert_eq!(apply(&mut updated, &r), apply(&mut fresh, &r));

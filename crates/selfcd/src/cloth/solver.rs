@@ -215,20 +215,42 @@ pub fn for_chunks2<A: Send, B: Send>(
     }
 }
 
-/// `s = P^-1 r` (multigrid when given, else block Jacobi with `pinv`); returns `r . s`.
-fn precondition(mg: Option<&mut Multigrid>, pinv: &[DMat3], r: &[DVec3], s: &mut [DVec3]) -> f64 {
-    match mg {
-        Some(m) => m.apply(r, s),
-        None => {
+/// `s = P^-1 r` for preconditioner `p` (`mg` its hierarchy where it has
+/// one, `pinv` the inverse diagonal blocks); returns `r . s`.
+fn precondition(
+    p: Preconditioner,
+    mg: Option<&mut Multigrid>,
+    pinv: &[DMat3],
+    r: &[DVec3],
+    s: &mut [DVec3],
+) -> f64 {
+    match (p, mg) {
+        (Preconditioner::Multigrid, Some(m)) => {
+            m.apply(r, s);
+            dot(r, s)
+        }
+        (_, mg) => {
             for_chunks(s, |start, out| {
                 for (k, si) in out.iter_mut().enumerate() {
                     *si = pinv[start + k] * r[start + k];
                 }
                 0.0
             });
+            let jacobi = dot(r, s);
+            match mg {
+                Some(m) => {
+                    let coarse = m.coarse_correct(r);
+                    if let Some((of, e)) = m.correction() {
+                        for (si, &a) in s.iter_mut().zip(of) {
+                            *si += e[a as usize];
+                        }
+                    }
+                    jacobi + coarse
+                }
+                None => jacobi,
+            }
         }
     }
-    dot(r, s)
 }
 
 /// Runs `f(start, a, b, c)` over matching fixed chunks of three slices and
@@ -270,21 +292,32 @@ pub enum Preconditioner {
     /// ([`super::multigrid`]): about three matrix products per iteration, and
     /// far fewer iterations on fine meshes.
     Multigrid,
+    /// Block Jacobi plus a coarse-grid correction, added:
+    /// `P^-1 = blockdiag(A)^-1 + P C P^T` with the aggregation and the
+    /// V-cycle `C` of [`super::multigrid`] on the coarser levels
+    /// ([`Multigrid::coarse_correct`]). No matrix product on the finest
+    /// level beyond the conjugate gradients' own, and about as many
+    /// iterations as the V-cycle where contacts constrain much of the cloth.
+    TwoLevel,
 }
 
-/// From this many vertices up, [`Preconditioner::for_vertices`] picks multigrid.
-/// Measured on the centre scene, 2 threads (BENCHMARKS.md, "Lead: choosing the
-/// preconditioner"): multigrid cut the iterations 4x everywhere, but its solve
-/// took 15% longer at 1,681 vertices and 10% longer at 10,201 (block Jacobi's
-/// cheaper iterations parallelise better), and 30% less at 40,401.
-pub const MULTIGRID_MIN_VERTICES: usize = 20_000;
+/// From this many vertices up, [`Preconditioner::for_vertices`] picks the
+/// two-level form. Measured on the centre scene over 200 steps, 2 threads
+/// (BENCHMARKS.md, thirtieth landing): it needs about half of block Jacobi's
+/// iterations from 31 x 31 vertices up, but pays the coarse levels' update
+/// every step, so the solves level at 961 vertices (1.72 against 1.74 ms)
+/// and block Jacobi wins below (0.54 against 0.95 ms at 441). The V-cycle
+/// ([`Preconditioner::Multigrid`]) needed a few iterations fewer than the
+/// two-level form but took longer at every size measured (its two
+/// finest-level products an iteration).
+pub const TWO_LEVEL_MIN_VERTICES: usize = 1_000;
 
 impl Preconditioner {
     /// The faster preconditioner for a cloth of `n` vertices on measured runs:
-    /// multigrid from [`MULTIGRID_MIN_VERTICES`] up, block Jacobi below.
+    /// two-level from [`TWO_LEVEL_MIN_VERTICES`] up, block Jacobi below.
     pub fn for_vertices(n: usize) -> Preconditioner {
-        if n >= MULTIGRID_MIN_VERTICES {
-            Preconditioner::Multigrid
+        if n >= TWO_LEVEL_MIN_VERTICES {
+            Preconditioner::TwoLevel
         } else {
             Preconditioner::BlockJacobi
         }
@@ -321,7 +354,8 @@ pub struct PcgStats {
     pub residual: f64,
 }
 
-/// Work vectors of the filtered PCG and the multigrid hierarchy, kept between steps.
+/// Work vectors of the filtered PCG and the multigrid hierarchy (of either
+/// multigrid preconditioner), kept between steps.
 #[derive(Debug, Clone, Default)]
 pub struct Pcg {
     r: Vec<DVec3>,
@@ -329,7 +363,7 @@ pub struct Pcg {
     q: Vec<DVec3>,
     s: Vec<DVec3>,
     pinv: Vec<DMat3>,
-    /// Built on the first multigrid solve; its aggregates follow that matrix.
+    /// Built on the first solve that needs it; its aggregates follow that matrix.
     multigrid: Option<Multigrid>,
 }
 
@@ -357,15 +391,19 @@ impl Pcg {
                 *x = filter.apply(i, *x) + filter.prescribed(i);
             }
         });
-        let mut mg = match opts.preconditioner {
+        let kind = opts.preconditioner;
+        let fine = kind == Preconditioner::Multigrid;
+        let mut mg = match kind {
             Preconditioner::BlockJacobi => None,
-            Preconditioner::Multigrid => Some(match self.multigrid.take() {
-                Some(mut m) if m.fits(a) => {
-                    m.update(a);
-                    m
-                }
-                _ => Multigrid::new(a),
-            }),
+            Preconditioner::Multigrid | Preconditioner::TwoLevel => {
+                Some(match self.multigrid.take() {
+                    Some(mut m) if m.fits(a, fine) => {
+                        m.update(a);
+                        m
+                    }
+                    _ => Multigrid::new(a, fine),
+                })
+            }
         };
         let pinv = &self.pinv;
         let dv_ro: &[DVec3] = dv;
@@ -377,8 +415,8 @@ impl Pcg {
                 sb[k] = filter.apply(i, b[i]);
             }
         });
-        let delta_b = precondition(mg.as_mut(), pinv, &self.q, &mut self.c);
-        let delta = precondition(mg.as_mut(), pinv, &self.r, &mut self.s);
+        let delta_b = precondition(kind, mg.as_mut(), pinv, &self.q, &mut self.c);
+        let delta = precondition(kind, mg.as_mut(), pinv, &self.r, &mut self.s);
         let s = &self.s;
         for_chunks(&mut self.c, |start, c| {
             for (k, ci) in c.iter_mut().enumerate() {
@@ -405,8 +443,9 @@ impl Pcg {
                 break;
             }
             let alpha = delta / cq;
-            let (c, q, jacobi) = (&self.c, &self.q, mg.is_none());
-            // With block Jacobi, s = P^-1 r and r.s in the same pass.
+            let (c, q, jacobi) = (&self.c, &self.q, !fine);
+            // With block Jacobi (alone or two-level), s = blockdiag(A)^-1 r
+            // and r.s in the same pass.
             let mut next = for_chunks3(dv, &mut self.r, &mut self.s, |start, x, r, s| {
                 let mut part = 0.0;
                 for k in 0..x.len() {
@@ -420,16 +459,24 @@ impl Pcg {
                 }
                 part
             });
-            if !jacobi {
-                next = precondition(mg.as_mut(), pinv, &self.r, &mut self.s);
+            match mg.as_mut() {
+                Some(m) if fine => next = precondition(kind, Some(m), pinv, &self.r, &mut self.s),
+                Some(m) => next += m.coarse_correct(&self.r),
+                None => {}
             }
             let beta = next / delta;
             delta = next;
             let s = &self.s;
+            // The two-level coarse correction joins s here (P e, per vertex).
+            let coarse = mg.as_ref().filter(|_| !fine).and_then(|m| m.correction());
             for_chunks(&mut self.c, |start, c| {
                 for (k, ci) in c.iter_mut().enumerate() {
                     let i = start + k;
-                    *ci = filter.apply(i, s[i] + *ci * beta);
+                    let si = match coarse {
+                        Some((of, e)) => s[i] + e[of[i] as usize],
+                        None => s[i],
+                    };
+                    *ci = filter.apply(i, si + *ci * beta);
                 }
                 0.0
             });
@@ -490,7 +537,11 @@ mod tests {
         let b = random_vector(a.rows(), 12);
         let f = some_filter(a.rows());
         let (exact, _) = solve(&a, &b, &f, Preconditioner::BlockJacobi, 1e-12);
-        for p in [Preconditioner::BlockJacobi, Preconditioner::Multigrid] {
+        for p in [
+            Preconditioner::BlockJacobi,
+            Preconditioner::Multigrid,
+            Preconditioner::TwoLevel,
+        ] {
             let (dv, stats) = solve(&a, &b, &f, p, 1e-6);
             assert!(stats.residual <= 1e-6, "{p:?}: {stats:?}");
             let err = dv
@@ -513,7 +564,7 @@ mod tests {
     }
 
     #[test]
-    fn multigrid_needs_fewer_iterations() {
+    fn multigrid_and_two_level_need_fewer_iterations() {
         // Like the centre scene: one pin in the middle and one patch in contact.
         let n = 60;
         let a = spring_grid(n, 13);
@@ -528,9 +579,14 @@ mod tests {
         }
         let (_, jacobi) = solve(&a, &b, &f, Preconditioner::BlockJacobi, 1e-3);
         let (_, multigrid) = solve(&a, &b, &f, Preconditioner::Multigrid, 1e-3);
+        let (_, two_level) = solve(&a, &b, &f, Preconditioner::TwoLevel, 1e-3);
         assert!(
             multigrid.iterations * 3 < jacobi.iterations,
             "{multigrid:?} vs {jacobi:?}"
+        );
+        assert!(
+            two_level.iterations * 2 < jacobi.iterations,
+            "{two_level:?} vs {jacobi:?}"
         );
     }
 
