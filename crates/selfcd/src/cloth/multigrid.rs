@@ -726,7 +726,7 @@ mod tests {
     }
 
     #[test]
-    fn two_level_needs_no_finest_copy_and_keeps_it_apart() {
+    fn two_level_correction_needs_no_finest_copy() {
         let a = spring_grid(20, 8);
         let mut coarse_only = Multigrid::new(&a, false);
         let mut full = Multigrid::new(&a, true);

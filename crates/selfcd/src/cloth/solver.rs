@@ -290,7 +290,9 @@ pub enum Preconditioner {
     BlockJacobi,
     /// One V-cycle of aggregation multigrid on the unfiltered `A`
     /// ([`super::multigrid`]): about three matrix products per iteration, and
-    /// far fewer iterations on fine meshes.
+    /// far fewer iterations on fine meshes; yet slower than
+    /// [`Preconditioner::TwoLevel`] on every scene measured, so no longer
+    /// picked by [`Preconditioner::for_vertices`].
     Multigrid,
     /// Block Jacobi plus a coarse-grid correction, added:
     /// `P^-1 = blockdiag(A)^-1 + P C P^T` with the aggregation and the
