@@ -758,10 +758,14 @@ mod tests {
     #[test]
     fn works_at_any_scale() {
         // Scaling A by 2^k and r by 2^j scales B r by 2^(j - k), bit for bit,
-        // far outside single precision's range.
+        // far outside single precision's range (the V-cycle and the
+        // two-level correction alike).
         let a = spring_grid(20, 9);
         let r = random_vector(a.rows(), 10);
         let reference = apply(&mut Multigrid::new(&a, true), &r);
+        let mut coarse = Multigrid::new(&a, false);
+        let dot_ref = coarse.coarse_correct(&r);
+        let e_ref = coarse.correction().unwrap().1.to_vec();
         for (ka, kr) in [(-200, 300), (150, -250), (0, -140)] {
             let (sa, sr) = (2f64.powi(ka), 2f64.powi(kr));
             let mut b = a.clone();
@@ -772,6 +776,12 @@ mod tests {
             let rs: Vec<DVec3> = r.iter().map(|v| *v * sr).collect();
             let z = apply(&mut Multigrid::new(&b, true), &rs);
             for (x, y) in z.iter().zip(&reference) {
+                assert_eq!(*x, *y * (sr / sa), "scale 2^{ka}, rhs 2^{kr}");
+            }
+            // The two-level correction too, and its product with r.
+            let mut coarse = Multigrid::new(&b, false);
+            assert_eq!(coarse.coarse_correct(&rs), dot_ref * (sr * sr / sa));
+            for (x, y) in coarse.correction().unwrap().1.iter().zip(&e_ref) {
                 assert_eq!(*x, *y * (sr / sa), "scale 2^{ka}, rhs 2^{kr}");
             }
         }
