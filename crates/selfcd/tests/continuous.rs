@@ -504,7 +504,11 @@ fn translation_reuses_the_candidate_set() {
 /// the end positions of a few vertices changed (as impulses change their
 /// velocities) re-tests only the triangles touching them, and must still
 /// answer exactly what a fresh query gives; so must a repeat where nothing
-/// changed and one where most vertices changed (a whole query).
+/// changed and one where most vertices changed (a whole query). Every
+/// fourth frame starts with a proximity query at `x0`, as the simulator's
+/// step does, and adds a fast common slide to the step: its continuous
+/// queries then read that answer, and their repeats cull by the start's
+/// node boxes (the axis cull of `RepeatCull`).
 #[test]
 fn repeated_continuous_queries_equal_fresh_ones() {
     use selfcd::cloth::PaperScene;
@@ -520,7 +524,7 @@ fn repeated_continuous_queries_equal_fresh_ones() {
     let mut q = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
     let mut fresh = BvhDetector::new(mesh.clone(), Method::Bvh, 0.0);
     let mut s = FrameStats::default();
-    let (mut repeated_impacts, mut rounds) = (0, 0);
+    let (mut repeated_impacts, mut rounds, mut repeats_after_proximity) = (0, 0, 0);
     let mut x0 = sim.positions().to_vec();
     for frame in 0..120 {
         sim.step().unwrap();
@@ -531,6 +535,16 @@ fn repeated_continuous_queries_equal_fresh_ones() {
         } else {
             contact.detection_distance()
         };
+        let after_proximity = frame % 4 == 0;
+        if after_proximity {
+            q.proximity(&x0, contact.detection_distance(), &mut s)
+                .unwrap();
+            // A fast common slide along the sheet on top: every swept box
+            // then overlaps its neighbours', which the relative motion
+            // keeps apart.
+            x1.iter_mut().for_each(|p| p.x += 4.0 * e);
+        }
+        let repeats_before = s.continuous_repeats;
         for round in 0..4 {
             let got = q.continuous(&x0, &x1, thickness, &mut s).unwrap();
             let want = fresh.continuous(&x0, &x1, thickness).unwrap();
@@ -565,12 +579,16 @@ fn repeated_continuous_queries_equal_fresh_ones() {
                 }
             }
         }
+        if after_proximity {
+            repeats_after_proximity += s.continuous_repeats - repeats_before;
+        }
         x0 = sim.positions().to_vec();
     }
     eprintln!(
-        "{rounds} queries: {} repeats, {} builds, {} reuses, {repeated_impacts} impacts in repeats",
-        s.continuous_repeats, s.candidate_builds, s.candidate_reuses
+        "{rounds} queries: {} repeats ({repeats_after_proximity} after a proximity query), {} builds, {} reuses, {} from the proximity answer, {repeated_impacts} impacts in repeats",
+        s.continuous_repeats, s.candidate_builds, s.candidate_reuses, s.continuous_from_proximity
     );
+    assert!(s.continuous_from_proximity > 0 && repeats_after_proximity > 0);
     // Rounds 1-3 of every frame may repeat round 0's query; most of them
     // should (round 2 of every fifth frame changes too many vertices).
     let repeatable = rounds * 3 / 4;

@@ -72,8 +72,13 @@
 //! at a few vertices (impulses changed their velocities), keeps the last
 //! answer's pairs whose two visiting triangles touch none of those vertices
 //! (everything the fresh query computes for such a pair reads only their
-//! positions) and tests the triangle pairs that touch one, by a descent of
-//! the hierarchy refitted to the new sweep.
+//! positions) and tests the triangle pairs that touch one, by a traversal
+//! of the hierarchy refitted to the new sweep that skips the nodes without
+//! such a triangle. Where the fresh query took the start's node boxes, it
+//! also skips node pairs a coordinate axis keeps apart over the step
+//! (their start boxes and those moved by their displacement boxes): a
+//! sheet falling or sliding along itself sweeps every triangle's box over
+//! its neighbours', and only the relative motion tells them apart.
 
 use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
@@ -84,7 +89,7 @@ use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
 use crate::bvh::{build::build, Bvh};
 use crate::error::{Error, Result};
-use crate::geom::ccd::boxes_stay_apart;
+use crate::geom::ccd::{boxes_stay_apart, boxes_stay_apart_on_axes};
 use crate::geom::distance::HullCull;
 use crate::geom::{magnitude, Aabb};
 use crate::mesh::Mesh;
@@ -388,26 +393,98 @@ struct StartBoxes<'a> {
     thickness: f64,
 }
 
+impl StartBoxes<'_> {
+    /// Node `n`'s box at the start and that box moved by its displacement
+    /// box in `motion` (end 0): boxes holding the node at both ends.
+    #[inline]
+    fn moved(&self, motion: &Motion, n: u32) -> [Aabb; 2] {
+        let (s, d) = (&self.boxes[n as usize], &motion.node[n as usize]);
+        [
+            *s,
+            Aabb {
+                min: s.min + d.min,
+                max: s.max + d.max,
+            },
+        ]
+    }
+}
+
 impl MotionCull<'_> {
     /// Do nodes `a` and `b` stay apart over the step ([`boxes_stay_apart`]
     /// of their start boxes and those moved by their displacement boxes)?
     #[inline]
     fn apart(&self, a: u32, b: u32) -> bool {
-        let Some(StartBoxes { boxes, thickness }) = self.start else {
+        let Some(start) = self.start else {
             return false;
         };
         let m = self.motion;
-        let moved = |n: u32| {
-            let (s, d) = (&boxes[n as usize], &m.node[n as usize]);
-            [
-                *s,
-                Aabb {
-                    min: s.min + d.min,
-                    max: s.max + d.max,
-                },
-            ]
-        };
-        boxes_stay_apart(moved(a), moved(b), thickness)
+        boxes_stay_apart(start.moved(m, a), start.moved(m, b), start.thickness)
+    }
+}
+
+/// The traversal cull of a repeated continuous query: nodes that hold no
+/// touched triangle (`holds`, per node), and, with `start`, node pairs that
+/// a coordinate axis keeps apart over the step
+/// ([`boxes_stay_apart_on_axes`]: cheap enough for every node pair).
+struct RepeatCull<'a> {
+    holds: &'a [bool],
+    motion: &'a Motion,
+    start: Option<StartBoxes<'a>>,
+}
+
+impl Cull for RepeatCull<'_> {
+    type Scratch = ();
+    #[inline]
+    fn self_culled(&self, n: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = !self.holds[n as usize];
+        c.self_culls += culled as u64;
+        culled
+    }
+    #[inline]
+    fn pair_culled(&self, a: u32, b: u32, _: &mut (), c: &mut Counters) -> bool {
+        let culled = !(self.holds[a as usize] || self.holds[b as usize])
+            || self.start.is_some_and(|s| {
+                let m = self.motion;
+                boxes_stay_apart_on_axes(s.moved(m, a), s.moved(m, b), s.thickness)
+            });
+        c.pair_culls += culled as u64;
+        culled
+    }
+}
+
+/// Narrow phase of a repeated continuous query: the fresh query's (`apart`
+/// on the triangle pair, then `test` on each owned element pair) on the
+/// leaf pairs with a touched triangle.
+struct Touched<'a, F, A> {
+    mesh: &'a Mesh,
+    touched: &'a [bool],
+    test: F,
+    apart: A,
+}
+
+impl<T, F, A> LeafVisitor for Touched<'_, F, A>
+where
+    T: Send,
+    F: Fn(ElementPair) -> Option<T> + Sync,
+    A: Fn([u32; 2]) -> bool + Sync,
+{
+    type Item = T;
+    const SKIP_ADJACENT: bool = false;
+
+    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>) {
+        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
+    }
+
+    /// Counts the pairs `apart` decides in `filter_decisions`.
+    fn visit_counted(&self, a: u32, b: u32, _: bool, out: &mut Vec<T>, c: &mut Counters) {
+        if !(self.touched[a as usize] || self.touched[b as usize]) {
+            return;
+        }
+        if (self.apart)([a, b]) {
+            c.filter_decisions += 1;
+            return;
+        }
+        for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
     }
 }
 
@@ -520,9 +597,6 @@ struct Sweep {
 /// costs about as much.
 const REPEAT_SHARE: f64 = 0.25;
 
-/// Below this many touched triangles a repeated query runs on one thread.
-const REPEAT_PAR_MIN: usize = 64;
-
 /// Bitwise equality of two positions (`==` would take -0.0 for 0.0).
 #[inline]
 fn same_bits(a: DVec3, b: DVec3) -> bool {
@@ -565,27 +639,6 @@ impl Sweep {
     }
 }
 
-/// The leaves whose boxes are within `gap` of leaf `a`'s, by a descent of
-/// the hierarchy from the root: exactly the leaves the self-traversal pairs
-/// with `a` (it reaches every leaf pair whose boxes are within `gap`, since
-/// a node's box holds its leaves').
-fn leaves_near(bvh: &Bvh, a: u32, gap: f64, mut f: impl FnMut(u32)) {
-    let query = bvh.boxes[a as usize];
-    let mut stack = vec![bvh.root()];
-    while let Some(n) = stack.pop() {
-        if !bvh.boxes[n as usize].within(&query, gap) {
-            continue;
-        }
-        if bvh.is_leaf(n) {
-            if n != a {
-                f(n);
-            }
-        } else {
-            stack.extend(bvh.children_of(n));
-        }
-    }
-}
-
 /// The self queries of one mesh over a sequence of frames: one hierarchy and
 /// one candidate set (see the module doc).
 pub struct SelfQueries {
@@ -605,6 +658,9 @@ pub struct SelfQueries {
     /// The node boxes at the last continuous query's start, when the
     /// hierarchy was fitted there (a buffer swapped with the hierarchy's).
     start_boxes: Vec<Aabb>,
+    /// Whether `start_boxes` hold the last fresh continuous query's start
+    /// (what a repeat of it reads).
+    start_valid: bool,
     skin: f64,
     max_contacts: usize,
     rebuilds: Rebuilds,
@@ -696,6 +752,7 @@ impl SelfQueries {
             uncovered_tests: Vec::new(),
             sweep: Sweep::default(),
             start_boxes: Vec::new(),
+            start_valid: false,
             skin,
             max_contacts: DEFAULT_MAX_CONTACTS,
             rebuilds: Rebuilds::default(),
@@ -1095,6 +1152,7 @@ impl SelfQueries {
         });
         let mut found = self.uncovered(thickness, (allowance, kind), test, apart, start, s);
         self.start_boxes = start_boxes;
+        self.start_valid = at_start;
         let c = if kind.is_none() {
             &self.near
         } else {
@@ -1131,9 +1189,14 @@ impl SelfQueries {
     /// those triangles, then the time of impact of the pair's stencil, whose
     /// vertices lie on them), so the last answer's pairs whose visiting
     /// triangles touch no changed vertex stay as they were, and the triangle
-    /// pairs that do touch one are tested as the swept traversal tests them:
-    /// every leaf within `thickness` of a touched triangle's swept box, found
-    /// by a descent of the hierarchy fitted to the new sweep.
+    /// pairs that do touch one are tested as the swept traversal tests them,
+    /// by a traversal of the hierarchy fitted to the new sweep that skips
+    /// the nodes without a touched triangle ([`RepeatCull`]). Where the
+    /// start's node boxes are at hand (the fresh query took them), node
+    /// pairs that a coordinate axis keeps apart over the step are culled
+    /// too: on a falling sheet every swept box overlaps its neighbours',
+    /// which the relative motion keeps apart (BENCHMARKS.md, thirtieth
+    /// landing). Such a pair holds no impact, so the answer is unchanged.
     fn repeat_continuous(
         &mut self,
         x0: &[DVec3],
@@ -1150,38 +1213,34 @@ impl SelfQueries {
                 touched[t as usize] = true;
             }
         }
-        let tris: Vec<u32> = (0..mesh.n_triangles() as u32)
-            .filter(|&t| touched[t as usize])
-            .collect();
         self.bvh.refit_swept(&mesh, x0, x1);
         self.fit.fitted = false;
+        let mut holds = vec![false; self.bvh.n_nodes()];
+        self.bvh
+            .fit_nodes(&mut holds, |t| touched[t], |a: &bool, b: &bool| *a || *b);
+        if self.start_valid {
+            // (Allowance 0: the displacement boxes of every node.)
+            self.motion.fit(&self.bvh, &mesh, x0, &[x1], 0.0);
+        }
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let bvh = &self.bvh;
-        let retest = |&a: &u32| {
-            let (mut out, mut tests) = (Vec::new(), 0u64);
-            leaves_near(bvh, a, thickness, |b| {
-                if touched[b as usize] && b < a {
-                    return; // tested from b
-                }
-                tests += 1;
-                if stay_apart(&mesh, x0, x1, [a, b], thickness) {
-                    return;
-                }
-                for_each_owned_pair(&mesh, a.min(b), a.max(b), |p| {
-                    let pair = p.canonical();
-                    if let Some(toi) = element_toi(&mesh, x0, x1, pair, thickness) {
-                        out.push(Impact { pair, toi });
-                    }
-                });
-            });
-            (out, tests)
+        let cull = RepeatCull {
+            holds: &holds,
+            motion: &self.motion,
+            start: self.start_valid.then_some(StartBoxes {
+                boxes: &self.start_boxes,
+                thickness,
+            }),
         };
-        let retested: Vec<(Vec<Impact>, u64)> = if tris.len() >= REPEAT_PAR_MIN {
-            tris.par_iter().map(retest).collect()
-        } else {
-            tris.iter().map(retest).collect()
+        let visitor = Touched {
+            mesh: &mesh,
+            touched: &touched,
+            test: |p: ElementPair| {
+                element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
+            },
+            apart: |pair| stay_apart(&mesh, x0, x1, pair, thickness),
         };
+        let (retested, c) = traverse(&self.bvh, &mesh, thickness, &cull, &visitor);
         let mut found: Vec<Impact> = self
             .sweep
             .found
@@ -1192,10 +1251,10 @@ impl SelfQueries {
             })
             .copied()
             .collect();
-        for (items, tests) in retested {
-            found.extend(items);
-            s.proximity_tests += tests;
-        }
+        found.extend(retested);
+        s.node_pairs += c.node_pairs;
+        s.filter_decisions += c.filter_decisions;
+        s.proximity_tests += c.primitive_tests;
         s.continuous_repeats += 1;
         s.traverse_time += t1.elapsed().as_secs_f64();
         Impacts::from_items(found)
