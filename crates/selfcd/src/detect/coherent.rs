@@ -597,6 +597,20 @@ struct Sweep {
 /// costs about as much.
 const REPEAT_SHARE: f64 = 0.25;
 
+/// From this share (one in so many) of the triangles touched, a repeated
+/// continuous query traverses the hierarchy once for all of them (with the
+/// axis cull); below, each descends from the root alone, which costs less
+/// than the traversal's passes over every node. Measured on the centre
+/// scene (BENCHMARKS.md, thirtieth landing): at 80k triangles, repeats of
+/// up to 24k touched triangles took 1,064 ms by descents and 654 by the
+/// traversal over 30 steps, while at 20k the traversal for every repeat
+/// cost 0.5-1 ms a step more than the descents.
+const REPEAT_TRAVERSE_SHARE: usize = 16;
+
+/// Below this many touched triangles a repeated query's descents run on
+/// one thread.
+const REPEAT_PAR_MIN: usize = 64;
+
 /// Bitwise equality of two positions (`==` would take -0.0 for 0.0).
 #[inline]
 fn same_bits(a: DVec3, b: DVec3) -> bool {
@@ -637,6 +651,63 @@ impl Sweep {
         self.found
             .extend(found.vertex_triangle.iter().chain(&found.edge_edge));
     }
+}
+
+/// The leaves whose boxes are within `gap` of leaf `a`'s, by a descent of
+/// the hierarchy from the root: exactly the leaves the self-traversal pairs
+/// with `a` (it reaches every leaf pair whose boxes are within `gap`, since
+/// a node's box holds its leaves').
+fn leaves_near(bvh: &Bvh, a: u32, gap: f64, mut f: impl FnMut(u32)) {
+    let query = bvh.boxes[a as usize];
+    let mut stack = vec![bvh.root()];
+    while let Some(n) = stack.pop() {
+        if !bvh.boxes[n as usize].within(&query, gap) {
+            continue;
+        }
+        if bvh.is_leaf(n) {
+            if n != a {
+                f(n);
+            }
+        } else {
+            stack.extend(bvh.children_of(n));
+        }
+    }
+}
+
+/// The leaf pairs of the touched triangles `tris` with the leaves near
+/// them ([`leaves_near`]), each pair once, through `visitor`: what a
+/// repeated query's traversal visits, by one descent per triangle.
+fn descend_each<V: LeafVisitor>(
+    bvh: &Bvh,
+    tris: &[u32],
+    touched: &[bool],
+    gap: f64,
+    visitor: &V,
+) -> (Vec<V::Item>, Counters) {
+    let retest = |&a: &u32| {
+        let (mut out, mut c) = (Vec::new(), Counters::default());
+        leaves_near(bvh, a, gap, |b| {
+            if touched[b as usize] && b < a {
+                return; // visited from b
+            }
+            c.primitive_tests += 1;
+            visitor.visit_counted(a.min(b), a.max(b), false, &mut out, &mut c);
+        });
+        (out, c)
+    };
+    let parts: Vec<(Vec<V::Item>, Counters)> = if tris.len() >= REPEAT_PAR_MIN {
+        tris.par_iter().map(retest).collect()
+    } else {
+        tris.iter().map(retest).collect()
+    };
+    let mut counters = Counters::default();
+    let mut items = Vec::new();
+    for (out, c) in parts {
+        items.extend(out);
+        counters.primitive_tests += c.primitive_tests;
+        counters.filter_decisions += c.filter_decisions;
+    }
+    (items, counters)
 }
 
 /// The self queries of one mesh over a sequence of frames: one hierarchy and
@@ -1215,23 +1286,23 @@ impl SelfQueries {
         }
         self.bvh.refit_swept(&mesh, x0, x1);
         self.fit.fitted = false;
-        let mut holds = vec![false; self.bvh.n_nodes()];
-        self.bvh
-            .fit_nodes(&mut holds, |t| touched[t], |a: &bool, b: &bool| *a || *b);
-        if self.start_valid {
+        let tris: Vec<u32> = (0..mesh.n_triangles() as u32)
+            .filter(|&t| touched[t as usize])
+            .collect();
+        let traversed = tris.len() * REPEAT_TRAVERSE_SHARE >= touched.len();
+        let mut holds = Vec::new();
+        let axes = traversed && self.start_valid;
+        if traversed {
+            holds.resize(self.bvh.n_nodes(), false);
+            let join = |a: &bool, b: &bool| *a || *b;
+            self.bvh.fit_nodes(&mut holds, |t| touched[t], join);
+        }
+        if axes {
             // (Allowance 0: the displacement boxes of every node.)
             self.motion.fit(&self.bvh, &mesh, x0, &[x1], 0.0);
         }
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let cull = RepeatCull {
-            holds: &holds,
-            motion: &self.motion,
-            start: self.start_valid.then_some(StartBoxes {
-                boxes: &self.start_boxes,
-                thickness,
-            }),
-        };
         let visitor = Touched {
             mesh: &mesh,
             touched: &touched,
@@ -1240,7 +1311,19 @@ impl SelfQueries {
             },
             apart: |pair| stay_apart(&mesh, x0, x1, pair, thickness),
         };
-        let (retested, c) = traverse(&self.bvh, &mesh, thickness, &cull, &visitor);
+        let (retested, c) = if traversed {
+            let cull = RepeatCull {
+                holds: &holds,
+                motion: &self.motion,
+                start: axes.then_some(StartBoxes {
+                    boxes: &self.start_boxes,
+                    thickness,
+                }),
+            };
+            traverse(&self.bvh, &mesh, thickness, &cull, &visitor)
+        } else {
+            descend_each(&self.bvh, &tris, &touched, thickness, &visitor)
+        };
         let mut found: Vec<Impact> = self
             .sweep
             .found
