@@ -452,42 +452,6 @@ impl Cull for RepeatCull<'_> {
     }
 }
 
-/// Narrow phase of a repeated continuous query: the fresh query's (`apart`
-/// on the triangle pair, then `test` on each owned element pair) on the
-/// leaf pairs with a touched triangle.
-struct Touched<'a, F, A> {
-    mesh: &'a Mesh,
-    touched: &'a [bool],
-    test: F,
-    apart: A,
-}
-
-impl<T, F, A> LeafVisitor for Touched<'_, F, A>
-where
-    T: Send,
-    F: Fn(ElementPair) -> Option<T> + Sync,
-    A: Fn([u32; 2]) -> bool + Sync,
-{
-    type Item = T;
-    const SKIP_ADJACENT: bool = false;
-
-    fn visit(&self, a: u32, b: u32, adjacent: bool, out: &mut Vec<T>) {
-        self.visit_counted(a, b, adjacent, out, &mut Counters::default());
-    }
-
-    /// Counts the pairs `apart` decides in `filter_decisions`.
-    fn visit_counted(&self, a: u32, b: u32, _: bool, out: &mut Vec<T>, c: &mut Counters) {
-        if !(self.touched[a as usize] || self.touched[b as usize]) {
-            return;
-        }
-        if (self.apart)([a, b]) {
-            c.filter_decisions += 1;
-            return;
-        }
-        for_each_owned_pair(self.mesh, a, b, |p| out.extend((self.test)(p.canonical())));
-    }
-}
-
 impl Cull for MotionCull<'_> {
     type Scratch = ();
     #[inline]
@@ -504,20 +468,22 @@ impl Cull for MotionCull<'_> {
     }
 }
 
-/// Narrow phase of part (b): the fresh query's `test` on the owned element
-/// pairs of a leaf pair that are not covered, unless `apart` (the fresh
-/// query's triangle-pair test) decides that none of them can be found.
-struct Uncovered<'a, F, A> {
+/// Narrow phase of part (b) and of a repeated continuous query: the fresh
+/// query's `test` on the owned element pairs of a leaf pair, unless `skip`
+/// (part (b): the two triangles are covered; a repeat: neither is touched)
+/// or `apart` (the fresh query's triangle-pair test) decides that none of
+/// them is to be found.
+struct LeafTests<'a, S, F, A> {
     mesh: &'a Mesh,
-    motion: &'a Motion,
-    allowance: f64,
+    skip: S,
     test: F,
     apart: A,
 }
 
-impl<T, F, A> LeafVisitor for Uncovered<'_, F, A>
+impl<T, S, F, A> LeafVisitor for LeafTests<'_, S, F, A>
 where
     T: Send,
+    S: Fn(u32, u32) -> bool + Sync,
     F: Fn(ElementPair) -> Option<T> + Sync,
     A: Fn([u32; 2]) -> bool + Sync,
 {
@@ -530,8 +496,8 @@ where
 
     /// Counts the pairs `apart` decides in `filter_decisions`.
     fn visit_counted(&self, a: u32, b: u32, _: bool, out: &mut Vec<T>, c: &mut Counters) {
-        if self.motion.node_spread(a, b) < self.allowance {
-            return; // every pair of the two triangles is covered
+        if (self.skip)(a, b) {
+            return;
         }
         if (self.apart)([a, b]) {
             c.filter_decisions += 1;
@@ -1025,10 +991,11 @@ impl SelfQueries {
             allowance,
             start,
         };
-        let visitor = Uncovered {
+        let motion = &self.motion;
+        let visitor = LeafTests {
             mesh,
-            motion: &self.motion,
-            allowance,
+            // Every pair of the two triangles is covered.
+            skip: |a, b| motion.node_spread(a, b) < allowance,
             test,
             apart,
         };
@@ -1260,12 +1227,14 @@ impl SelfQueries {
     /// those triangles, then the time of impact of the pair's stencil, whose
     /// vertices lie on them), so the last answer's pairs whose visiting
     /// triangles touch no changed vertex stay as they were, and the triangle
-    /// pairs that do touch one are tested as the swept traversal tests them,
-    /// by a traversal of the hierarchy fitted to the new sweep that skips
-    /// the nodes without a touched triangle ([`RepeatCull`]). Where the
-    /// start's node boxes are at hand (the fresh query took them), node
-    /// pairs that a coordinate axis keeps apart over the step are culled
-    /// too: on a falling sheet every swept box overlaps its neighbours',
+    /// pairs that do touch one are tested as the swept traversal tests them
+    /// ([`LeafTests`]), on the hierarchy fitted to the new sweep: from one
+    /// in [`REPEAT_TRAVERSE_SHARE`] triangles touched, by a traversal that
+    /// skips the nodes without a touched triangle ([`RepeatCull`]), else by
+    /// a descent per touched triangle ([`descend_each`]). Where the start's
+    /// node boxes are at hand (the fresh query took them), the traversal
+    /// also culls node pairs that a coordinate axis keeps apart over the
+    /// step: on a falling sheet every swept box overlaps its neighbours',
     /// which the relative motion keeps apart (BENCHMARKS.md, thirtieth
     /// landing). Such a pair holds no impact, so the answer is unchanged.
     fn repeat_continuous(
@@ -1303,9 +1272,9 @@ impl SelfQueries {
         }
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
-        let visitor = Touched {
+        let visitor = LeafTests {
             mesh: &mesh,
-            touched: &touched,
+            skip: |a: u32, b: u32| !(touched[a as usize] || touched[b as usize]),
             test: |p: ElementPair| {
                 element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
             },
