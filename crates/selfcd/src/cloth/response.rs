@@ -435,15 +435,12 @@ fn resolve(
 /// vertices' drifts have grown by less than that room since (less a rounding
 /// guard far above the error of evaluating the deficit). On a settled pile of
 /// cloth most contacts are met by a wide margin and most impulses are small,
-/// so a sweep tests few of them.
+/// so a sweep tests few of them, but it still reads every contact's entry:
+/// one 24-byte record (its vertices and the drift sum it stays met below)
+/// in one stream, so the reading is all a skip costs.
 struct Watch {
-    /// Each contact's vertices (a compact copy: a skipped contact reads only these).
-    verts: Vec<[u32; 4]>,
-    /// Sum of the contact's vertices' drifts when it was last found met.
-    base: Vec<f64>,
-    /// How much that sum may grow before the contact must be tested again
-    /// (negative: test it).
-    room: Vec<f64>,
+    /// Per contact, what a skip reads.
+    entries: Vec<WatchEntry>,
     drift: Vec<f64>,
     /// Bound on every speed at the start, and on any |goal|.
     speed: f64,
@@ -451,12 +448,26 @@ struct Watch {
     most_drift: f64,
 }
 
+/// A contact's vertices and `limit`: the sum of their drifts when it was
+/// last found met plus its room then (`-inf`: test it). Folding the two into
+/// one sum rounds within `1e-16` of `|limit|`, far inside the guard: the
+/// room is at most `|goal| + 4 * speed` (weights at most 1), the drifts at
+/// most four times the largest.
+#[derive(Clone, Copy)]
+struct WatchEntry {
+    verts: [u32; 4],
+    limit: f64,
+}
+
 impl Watch {
     fn new(contacts: &[Contact], v: &[DVec3], goal: &impl Fn(&Contact) -> f64) -> Watch {
         Watch {
-            verts: contacts.iter().map(|c| c.verts).collect(),
-            base: vec![0.0; contacts.len()],
-            room: vec![-1.0; contacts.len()],
+            entries: (contacts.iter())
+                .map(|c| WatchEntry {
+                    verts: c.verts,
+                    limit: f64::NEG_INFINITY,
+                })
+                .collect(),
             drift: vec![0.0; v.len()],
             speed: v.iter().map(|x| x.length()).fold(0.0, f64::max),
             goal: contacts.iter().map(|c| goal(c).abs()).fold(0.0, f64::max),
@@ -471,22 +482,24 @@ impl Watch {
         1e-12 * (self.goal + 4.0 * (self.speed + self.most_drift))
     }
 
-    fn drift_of(&self, k: usize) -> f64 {
-        self.verts[k].iter().map(|&i| self.drift[i as usize]).sum()
+    #[inline]
+    fn drift_of(&self, verts: &[u32; 4]) -> f64 {
+        verts.iter().map(|&i| self.drift[i as usize]).sum()
     }
 
     /// True when contact `k` was met and cannot have a deficit above the slack now.
     #[inline]
     fn still_met(&self, k: usize, guard: f64) -> bool {
-        self.room[k] >= 0.0 && self.drift_of(k) - self.base[k] < self.room[k] - guard
+        let e = &self.entries[k];
+        self.drift_of(&e.verts) < e.limit - guard
     }
 
-    /// Contact `k` (`c`) is met with `room` to spare.
+    /// Contact `k` (`c`) is met with `room` (at least 0) to spare.
     fn met(&mut self, k: usize, c: &Contact, room: f64) {
         // (Weights are at most 1 in size; dividing keeps the bound if one is not.)
         let w = c.weights.iter().fold(1.0, |m: f64, w| m.max(w.abs()));
-        self.base[k] = self.drift_of(k);
-        self.room[k] = room / w;
+        let drift = self.drift_of(&self.entries[k].verts);
+        self.entries[k].limit = drift + room / w;
     }
 
     /// Contact `k` (`c`) got impulse `j`: its vertices drift by `|w_k j / m_k|`.
@@ -496,7 +509,7 @@ impl Watch {
             *d += (j * w * inv_mass[i as usize]).abs();
             self.most_drift = self.most_drift.max(*d);
         }
-        self.room[k] = -1.0;
+        self.entries[k].limit = f64::NEG_INFINITY;
     }
 }
 
