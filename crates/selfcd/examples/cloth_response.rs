@@ -1,17 +1,18 @@
-//! Times the cloth's impulse stage alone (`response::impulses`, the
-//! Gauss-Seidel sweeps over the proximity contacts) on one real contact set.
+//! Times the cloth's response stages alone on one real contact set: the
+//! contacts' gathering (`response::gather`) and the impulse stage
+//! (`response::impulses`, the Gauss-Seidel sweeps over them).
 //!
 //! ```text
-//! cargo run --release -p selfcd --example cloth_impulses -- [scene] [n] [warmup] [repeat]
+//! cargo run --release -p selfcd --example cloth_response -- [scene] [n] [warmup] [repeat]
 //! ```
 //! Steps `scene` (default center) at `n x n` vertices (default 101) for
 //! `warmup` steps (default 150), gathers the contacts of that state as the
 //! step does (the proximity query within the detection distance), and runs
-//! the stage `repeat` times (default 10) from the state's velocities plus
-//! one step of gravity, each time from the same input. Prints the contacts,
-//! what the stage did, the minimum time, and a checksum of the resulting
-//! velocities' bits (equal for any number of threads and across changes
-//! that keep the sweeps' arithmetic).
+//! each stage `repeat` times (default 10), the impulses from the state's
+//! velocities plus one step of gravity, each time from the same input.
+//! Prints the contacts, what the impulses did, the minimum times, and a
+//! checksum of the resulting velocities' bits (equal for any number of
+//! threads and across changes that keep the arithmetic).
 
 use selfcd::cloth::response::{self, ContactParams};
 use selfcd::cloth::{Material, PaperScene, SimOptions, Simulation};
@@ -61,7 +62,13 @@ fn run() -> Result<(), String> {
     let p: ContactParams = opts.contact;
     let (near, _) = proximity_contacts(&mesh, &x, p.detection_distance(), usize::MAX)
         .map_err(|e| e.to_string())?;
-    let contacts = response::gather(&mesh, &x, &near);
+    let (mut gather, mut contacts) = (f64::INFINITY, Vec::new());
+    for _ in 0..repeat.max(1) {
+        drop(contacts);
+        let t0 = Instant::now();
+        contacts = response::gather(&mesh, &x, &near);
+        gather = gather.min(t0.elapsed().as_secs_f64());
+    }
     let inv_mass = sim.cloth().inverse_masses();
     let h = opts.dt;
     let g = sim.cloth().gravity();
@@ -78,11 +85,12 @@ fn run() -> Result<(), String> {
     }
     let bits = v.iter().flat_map(|p| p.to_array()).map(f64::to_bits);
     println!(
-        "scene {scene} n {n} after {warmup} steps, threads {}: {} contacts; {:?}; best of {repeat} {:.3} ms; velocities checksum {:016x}",
+        "scene {scene} n {n} after {warmup} steps, threads {}: {} contacts; best of {repeat}: gather {:.3} ms, impulses {:.3} ms ({:?}); velocities checksum {:016x}",
         rayon::current_num_threads(),
         contacts.len(),
-        stats.unwrap_or_default(),
+        gather * 1e3,
         best * 1e3,
+        stats.unwrap_or_default(),
         checksum::fnv(checksum::START, bits)
     );
     Ok(())
