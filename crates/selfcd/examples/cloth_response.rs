@@ -75,7 +75,15 @@ fn run() -> Result<(), String> {
     let v0: Vec<_> = (sim.velocities().iter().zip(&inv_mass))
         .map(|(v, &w)| if w > 0.0 { *v + g * h } else { *v })
         .collect();
-    let mu = |_: &response::Contact| p.friction;
+    // The simulator's: a contact with an obstacle's vertex (none here) has its own.
+    let n = x.len();
+    let mu = |c: &response::Contact| {
+        if c.verts.iter().any(|&k| k as usize >= n) {
+            p.obstacle_friction
+        } else {
+            p.friction
+        }
+    };
     let (mut best, mut v, mut stats) = (f64::INFINITY, v0.clone(), None);
     for _ in 0..repeat.max(1) {
         v.copy_from_slice(&v0);
