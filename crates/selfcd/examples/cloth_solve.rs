@@ -28,21 +28,11 @@ use std::time::Instant;
 
 #[path = "common/allocator.rs"]
 mod allocator;
+#[path = "common/args.rs"]
+mod args;
+use args::{arg, exit_status};
 fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-fn arg<T: std::str::FromStr>(args: &[String], i: usize, default: T) -> Result<T, String> {
-    match args.get(i) {
-        None => Ok(default),
-        Some(s) => s.parse().map_err(|_| format!("bad argument {i}: {s:?}")),
-    }
+    exit_status(run())
 }
 
 /// Minimum wall-clock seconds of `f` over `repeat` runs, and its last result.

@@ -450,9 +450,10 @@ struct Watch {
 
 /// A contact's vertices and `limit`: the sum of their drifts when it was
 /// last found met plus its room then (`-inf`: test it). Folding the two into
-/// one sum rounds within `1e-16` of `|limit|`, far inside the guard: the
-/// room is at most `|goal| + 4 * speed` (weights at most 1), the drifts at
-/// most four times the largest.
+/// one number adds one rounding of it (a relative `1e-16`), of the size of
+/// those the room and the drift sums carry already: the guard
+/// ([`Watch::guard`], `1e-12` of the bounds on the goals and speeds, which
+/// bound the room and the drifts) covers them all.
 #[derive(Clone, Copy)]
 struct WatchEntry {
     verts: [u32; 4],
