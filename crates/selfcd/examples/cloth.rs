@@ -7,7 +7,10 @@
 //! (default 11); steps: timed steps (default 600); method: detection method
 //! (default bvh-cones-contour); warmup: steps run before timing (default 0).
 //! `CLOTH_PRECONDITIONER=block-jacobi|multigrid|two-level` overrides the preconditioner
-//! the simulator picks by size (`Preconditioner::for_vertices`). The last
+//! the simulator picks by size (`Preconditioner::for_vertices`).
+//! `CLOTH_TRACE=1` prints one line a step: its stages' times and what the
+//! queries did (where a scene's time goes as it falls, folds and settles).
+//! The last
 //! line is a checksum of the final positions' bits: the same for any number
 //! of threads.
 
@@ -69,6 +72,7 @@ fn run() -> Result<(), String> {
     let (mut node_pairs, mut leaf_tests) = (0u64, 0u64);
     let (mut repeats, mut proved, mut from_proximity) = (0u64, 0u64, 0u64);
     let (mut fit_time, mut query_time, mut candidates) = (0.0, 0.0, 0u64);
+    let trace = std::env::var_os("CLOTH_TRACE").is_some_and(|x| x == "1");
     for k in 0..steps {
         let st = sim.step().map_err(|e| e.to_string())?;
         step += st.step_time;
@@ -95,6 +99,23 @@ fn run() -> Result<(), String> {
         query_time += st.detection.traverse_time;
         candidates += st.detection.candidates;
         worst = worst.max(st.step_time);
+        if trace {
+            let d = &st.detection;
+            println!(
+                "step {k} ms: proximity {:.2} continuous {:.2} ({} rounds) solve {:.2} response {:.2}; contacts {}, one-shot answers {}, set queries {}, set builds {}, node pairs {}, leaf pairs {}",
+                st.proximity_time * 1e3,
+                st.continuous_time * 1e3,
+                st.ccd_rounds,
+                st.solve_time * 1e3,
+                st.response_time * 1e3,
+                st.contacts,
+                d.proximity_one_shots,
+                d.candidate_reuses,
+                d.candidate_builds,
+                d.node_pairs,
+                d.proximity_tests
+            );
+        }
         if std::env::var_os("CLOTH_VERBOSE").is_some() && k % 30 == 0 {
             let e = sim.energy();
             println!(
