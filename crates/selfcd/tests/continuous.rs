@@ -634,3 +634,70 @@ fn extreme_scales_give_the_same_impact_pairs() {
     }
     assert_eq!(checked, 4 * 6 * 2);
 }
+
+/// The end-of-step checks' repeated query: after some vertices moved, the
+/// intersections from the last answer and the triangles at the moved
+/// vertices equal a fresh query's, over rounds that move a few vertices
+/// (the per-triangle descents) or a sixth of them (the traversal), on a
+/// crumpled sheet that passes through itself; bad ids are errors.
+#[test]
+fn intersections_after_moving_equal_fresh_ones() {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use selfcd::detect::coherent::SelfQueries;
+    use selfcd::FrameStats;
+
+    let mesh = mesh(31);
+    let e = mesh.mean_edge_length();
+    let crumple = Deformation::Crumple {
+        amplitude: 0.3,
+        wavelength: 0.3,
+        seed: 7,
+    };
+    let mut x = crumple.apply(mesh.rest());
+    let mut q = SelfQueries::new(mesh.clone(), 0.25 * e).unwrap();
+    let mut s = FrameStats::default();
+    let mut last = q.intersections(&x, true, &mut s).unwrap();
+    assert!(
+        last.len() > 20,
+        "the sheet must pass through itself: {}",
+        last.len()
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let n = mesh.n_vertices() as u32;
+    let (mut descents, mut traversals) = (0, 0);
+    for round in 0..24 {
+        let count = if round % 3 == 2 {
+            n as usize / 6
+        } else {
+            1 + round % 5
+        };
+        let mut moved: Vec<u32> = (0..count).map(|_| rng.gen_range(0..n)).collect();
+        moved.sort_unstable();
+        moved.dedup();
+        for &v in &moved {
+            let d = DVec3::new(rng.gen(), rng.gen(), rng.gen()) - DVec3::splat(0.5);
+            x[v as usize] += 4.0 * e * d;
+        }
+        let node_pairs = s.node_pairs;
+        let got = q
+            .intersections_after_moving(&x, &moved, &last, &mut s)
+            .unwrap();
+        let (want, _) = selfcd::bvh::topdown::self_intersections(&mesh, &x);
+        assert_eq!(got, want, "round {round}");
+        if s.node_pairs > node_pairs {
+            traversals += 1;
+        } else {
+            descents += 1;
+        }
+        last = got;
+    }
+    assert!(descents > 0 && traversals > 0, "{descents} {traversals}");
+    assert!(q
+        .intersections_after_moving(&x, &[n], &last, &mut s)
+        .is_err());
+    let bad = [[0, mesh.n_triangles() as u32]];
+    assert!(q
+        .intersections_after_moving(&x, &[0], &bad, &mut s)
+        .is_err());
+}

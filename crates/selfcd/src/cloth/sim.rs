@@ -37,7 +37,7 @@ use super::obstacle::{Collider, Obstacles};
 use super::response::{self, Contact, ContactParams, StepStart, Zones};
 use super::solver::{Filter, Pcg, PcgOptions, Preconditioner, System};
 use crate::bvh::{build::build, Bvh};
-use crate::detect::coherent::SelfQueries;
+use crate::detect::coherent::{same_bits, SelfQueries};
 use crate::detect::Method;
 use crate::error::{Error, Result};
 use crate::geom::ccd::StencilKind;
@@ -465,14 +465,20 @@ impl Simulation {
         let mut zones = Zones::new(self.cloth.pinned());
         let v_in = self.v.clone();
         let mut combined: Vec<DVec3> = self.x.iter().chain(o1).copied().collect();
+        // The last check's answer and the vertices the zones moved since:
+        // a later check tests again only the triangles at those vertices.
+        let (mut last, mut moved): (Option<Vec<[u32; 2]>>, Vec<u32>) = (None, Vec::new());
         loop {
             st.correction_rounds += 1;
             let cones = self.cones();
             // A proved-clear step skips its first self check (see `proved_clear`).
             let proved = st.proved_clear && st.correction_rounds == 1;
             let all = if self.opts.self_collision && !proved {
-                timed(&mut st.detect_time, || {
-                    self.queries.intersections(&self.x, cones, det)
+                timed(&mut st.detect_time, || match &last {
+                    Some(last) => {
+                        (self.queries).intersections_after_moving(&self.x, &moved, last, det)
+                    }
+                    None => self.queries.intersections(&self.x, cones, det),
                 })?
             } else {
                 Vec::new()
@@ -510,7 +516,13 @@ impl Simulation {
                 self.tolerated = all;
                 return Ok(());
             }
+            let before = self.x.clone();
             zones.move_rigidly(&start, &v_in, &mut self.x, &mut self.v);
+            moved = (0..n as u32)
+                .filter(|&i| !same_bits(before[i as usize], self.x[i as usize]))
+                .collect();
+            // (Only a check that ran: a proved-clear step's first is skipped.)
+            last = (!proved).then_some(all);
         }
     }
 }
