@@ -475,9 +475,9 @@ impl Simulation {
             let proved = st.proved_clear && st.correction_rounds == 1;
             let all = if self.opts.self_collision && !proved {
                 timed(&mut st.detect_time, || match &last {
-                    Some(last) => {
-                        (self.queries).intersections_after_moving(&self.x, &moved, last, det)
-                    }
+                    Some(last) => self
+                        .queries
+                        .intersections_after_moving(&self.x, &moved, last, det),
                     None => self.queries.intersections(&self.x, cones, det),
                 })?
             } else {
