@@ -87,8 +87,8 @@
 //! triangles did not change) and tests again, the same two ways as a
 //! repeated continuous query, the triangle pairs at a moved vertex
 //! ([`SelfQueries::intersections_after_moving`]). On the 80k centre
-//! cloth's first 60 steps this took the checks from 28.3 to 10.7 ms a
-//! step (BENCHMARKS.md, thirty-first landing).
+//! cloth's first 60 steps this took the checks from 28.3-28.5 to
+//! 10.7-11.3 ms a step (BENCHMARKS.md, thirty-first landing).
 
 use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
