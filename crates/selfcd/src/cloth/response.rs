@@ -33,6 +33,7 @@
 
 use super::solver::Filter;
 use super::springs::outer;
+use crate::detect::coherent::same_bits;
 use crate::detect::continuous::Impacts;
 use crate::detect::narrow::ElementPair;
 use crate::detect::obstacle::{self as cross, Meshes};
@@ -730,9 +731,24 @@ impl Zones {
     }
 
     /// Moves every zone rigidly from `s.x0` with the momentum of the velocities
-    /// `u` (those the step had before the correction), and bound vertices with their obstacle.
-    pub fn move_rigidly(&mut self, s: &StepStart, u: &[DVec3], x: &mut [DVec3], v: &mut [DVec3]) {
+    /// `u` (those the step had before the correction), and bound vertices with
+    /// their obstacle. Returns the vertices whose position changed (bits), once
+    /// each: what a later intersection check tests again.
+    pub fn move_rigidly(
+        &mut self,
+        s: &StepStart,
+        u: &[DVec3],
+        x: &mut [DVec3],
+        v: &mut [DVec3],
+    ) -> Vec<u32> {
         let n = x.len();
+        let mut moved = Vec::new();
+        let mut place = |i: usize, p: DVec3, x: &mut [DVec3]| {
+            if !same_bits(x[i], p) {
+                moved.push(i as u32);
+            }
+            x[i] = p;
+        };
         let mut by_root: Vec<Vec<u32>> = vec![Vec::new(); n];
         for i in 0..n {
             if self.member[i] {
@@ -742,7 +758,7 @@ impl Zones {
         }
         for (i, d) in self.bound.iter().enumerate() {
             if let Some(d) = d {
-                x[i] = s.x0[i] + *d;
+                place(i, s.x0[i] + *d, x);
                 v[i] = *d / s.h;
             }
         }
@@ -754,10 +770,11 @@ impl Zones {
             };
             for &i in verts.iter().filter(|&&i| !self.fixed[i as usize]) {
                 let i = i as usize;
-                x[i] = motion.apply(s.x0[i]);
+                place(i, motion.apply(s.x0[i]), x);
                 v[i] = (x[i] - s.x0[i]) / s.h;
             }
         }
+        moved
     }
 }
 

@@ -37,7 +37,7 @@ use super::obstacle::{Collider, Obstacles};
 use super::response::{self, Contact, ContactParams, StepStart, Zones};
 use super::solver::{Filter, Pcg, PcgOptions, Preconditioner, System};
 use crate::bvh::{build::build, Bvh};
-use crate::detect::coherent::{same_bits, SelfQueries};
+use crate::detect::coherent::SelfQueries;
 use crate::detect::Method;
 use crate::error::{Error, Result};
 use crate::geom::ccd::StencilKind;
@@ -516,11 +516,7 @@ impl Simulation {
                 self.tolerated = all;
                 return Ok(());
             }
-            let before = self.x.clone();
-            zones.move_rigidly(&start, &v_in, &mut self.x, &mut self.v);
-            moved = (0..n as u32)
-                .filter(|&i| !same_bits(before[i as usize], self.x[i as usize]))
-                .collect();
+            moved = zones.move_rigidly(&start, &v_in, &mut self.x, &mut self.v);
             // (Only a check that ran: a proved-clear step's first is skipped.)
             last = (!proved).then_some(all);
         }

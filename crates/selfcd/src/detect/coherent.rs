@@ -520,7 +520,7 @@ where
 /// `inner` on the leaf pairs with a `touched` triangle (and, for a visitor
 /// that skips them, sharing no vertex: [`descend_each`] does not ask).
 struct Touching<'a, V> {
-    inner: V,
+    inner: &'a V,
     touched: &'a [bool],
     mesh: &'a Mesh,
 }
@@ -616,6 +616,17 @@ const REPEAT_PAR_MIN: usize = 64;
 #[inline]
 pub(crate) fn same_bits(a: DVec3, b: DVec3) -> bool {
     a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+}
+
+/// One flag per triangle of `mesh`: whether it holds one of `vertices`.
+fn triangles_at(mesh: &Mesh, vertices: &[u32]) -> Vec<bool> {
+    let mut at = vec![false; mesh.n_triangles()];
+    for &v in vertices {
+        for &t in mesh.topology().vertex_tris.row(v as usize) {
+            at[t as usize] = true;
+        }
+    }
+    at
 }
 
 impl Sweep {
@@ -1282,19 +1293,15 @@ impl SelfQueries {
     ) -> Impacts {
         let t0 = Instant::now();
         let mesh = self.mesh.clone();
-        let mut touched = vec![false; mesh.n_triangles()];
-        for &v in changed {
-            for &t in mesh.topology().vertex_tris.row(v as usize) {
-                touched[t as usize] = true;
-            }
-        }
+        let touched = triangles_at(&mesh, changed);
         self.bvh.refit_swept(&mesh, x0, x1);
         self.fit.fitted = false;
         let t1 = Instant::now();
         s.refit_time += (t1 - t0).as_secs_f64();
         let visitor = LeafTests {
             mesh: &mesh,
-            skip: |a: u32, b: u32| !(touched[a as usize] || touched[b as usize]),
+            // (`retest_touched` visits only the pairs with a touched triangle.)
+            skip: |_: u32, _: u32| false,
             test: |p: ElementPair| {
                 element_toi(&mesh, x0, x1, p, thickness).map(|toi| Impact { pair: p, toi })
             },
@@ -1323,7 +1330,7 @@ impl SelfQueries {
 
     /// The leaf pairs with a `touched` triangle (one flag per triangle)
     /// whose boxes, as the hierarchy is fitted, are within `gap`, through
-    /// `visitor` (which skips the other pairs itself): from one in
+    /// `visitor` (those its traversal would visit: [`Touching`]): from one in
     /// [`REPEAT_TRAVERSE_SHARE`] triangles touched, by a traversal that
     /// skips the nodes without a touched triangle ([`RepeatCull`]) and,
     /// with `sweep` (a continuous query's step `x0 -> x1`, the start's node
@@ -1336,6 +1343,11 @@ impl SelfQueries {
         visitor: &V,
         sweep: Option<(&[DVec3], &[DVec3])>,
     ) -> (Vec<V::Item>, Counters) {
+        let visitor = &Touching {
+            inner: visitor,
+            touched,
+            mesh: &self.mesh,
+        };
         let tris: Vec<u32> = (0..touched.len() as u32)
             .filter(|&t| touched[t as usize])
             .collect();
@@ -1393,21 +1405,12 @@ impl SelfQueries {
                 "triangle pair {p:?} out of range (the mesh has {nt} triangles)"
             )));
         }
-        let mut touched = vec![false; nt];
-        for &v in moved {
-            for &t in mesh.topology().vertex_tris.row(v as usize) {
-                touched[t as usize] = true;
-            }
-        }
+        let touched = triangles_at(&mesh, moved);
         self.fit_static(x, s);
         let t0 = Instant::now();
-        let visitor = Touching {
-            inner: Intersect {
-                mesh: &mesh,
-                positions: x,
-            },
-            touched: &touched,
+        let visitor = Intersect {
             mesh: &mesh,
+            positions: x,
         };
         let (found, c) = self.retest_touched(&touched, 0.0, &visitor, None);
         let kept = last
