@@ -99,9 +99,17 @@ fn one_side_clearance(t: &[DVec3; 3], p: &[DVec3; 3]) -> f64 {
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     let p = [a[0], a[1], a[2], b[0], b[1], b[2]];
     match Expansion::new(p) {
-        Some(k) => intersect(&k),
-        None => intersect(&BigInts::new(&p)),
+        Some(k) => intersect(&k, [a, b]),
+        None => intersect(&BigInts::new(&p), [a, b]),
     }
+}
+
+/// Bit c set when triangle `t` lies in a plane normal to axis c (its
+/// corners share coordinate c exactly; both arithmetics take coordinates
+/// exactly, so they compare alike).
+#[inline]
+fn flat_axes(t: &[DVec3; 3]) -> u32 {
+    (t[0].cmpeq(t[1]) & t[0].cmpeq(t[2])).bitmask()
 }
 
 /// True when point `p` lies in closed triangle `t` (a degenerate triangle as
@@ -166,23 +174,34 @@ fn point_in_triangle_3d<K: Orientation>(k: &K) -> bool {
 const A: [usize; 3] = [0, 1, 2];
 const B: [usize; 3] = [3, 4, 5];
 
-/// The decision on corners a = 0, 1, 2 and b = 3, 4, 5 of `k`.
+/// The decision on corners a = 0, 1, 2 and b = 3, 4, 5 of `k`, the
+/// triangles `[a, b]` (read for [`flat_axes`]).
 #[inline]
-fn intersect<K: Orientation>(k: &K) -> bool {
+fn intersect<K: Orientation>(k: &K, [a, b]: [&[DVec3; 3]; 2]) -> bool {
+    let fa = flat_axes(a);
     // Both in one plane normal to an axis: all six orientations below are
     // exactly 0, which their filters cannot show (each would take the exact
     // fallback); comparisons can, and the pair takes the path those zeros
     // lead to.
-    if on_axis_plane(k, [0, 1, 2, 3, 4, 5]) {
-        return edge_tests(k, [0; 3], [0; 3]);
+    if fa != 0 {
+        let common = fa & flat_axes(b) & a[0].cmpeq(b[0]).bitmask();
+        if common != 0 {
+            return edge_tests(k, [0; 3], [0; 3]);
+        }
     }
     // Plane-side rejection first: it settles most pairs, and it is valid for
     // degenerate triangles too (their orientations are all zero, never one-sided).
-    let sb = B.map(|p| k.orient3d([A[0], A[1], A[2], p]));
+    let sb = match fa {
+        0 => B.map(|p| k.orient3d([A[0], A[1], A[2], p])),
+        _ => flat_plane_sides(k, A, fa, B),
+    };
     if strictly_one_side(sb) {
         return false;
     }
-    let sa = A.map(|p| k.orient3d([B[0], B[1], B[2], p]));
+    let sa = match flat_axes(b) {
+        0 => A.map(|p| k.orient3d([B[0], B[1], B[2], p])),
+        fb => flat_plane_sides(k, B, fb, A),
+    };
     if strictly_one_side(sa) {
         return false;
     }
@@ -191,6 +210,24 @@ fn intersect<K: Orientation>(k: &K) -> bool {
     } else {
         edge_tests(k, sa, sb)
     }
+}
+
+/// The sides of the plane of triangle `t`, which lies in a plane normal to
+/// an axis (`flat`: its [`flat_axes`], not 0), that points `o` lie on:
+/// `orient3d([t0, t1, t2, p])` for each p, by a comparison each and one
+/// orientation in the plane. With c such an axis, `det[t0 - p, t1 - p,
+/// t2 - p] = (t0 - p) . ((t1 - t0) x (t2 - t0))`, and that cross product
+/// points along c, so the volume is `(t0_c - p_c)` times the area of `t`
+/// projected along c. That is where the orientations' filters fail: a
+/// flat sheet's neighbours, a fold whose corners lie exactly on a flat
+/// layer's plane, have volumes exactly 0, and each would take the exact
+/// fallback. (Out of line: the usual triangle, not flat, keeps its path
+/// as it was.)
+#[inline(never)]
+fn flat_plane_sides<K: Orientation>(k: &K, t: [usize; 3], flat: u32, o: [usize; 3]) -> [i8; 3] {
+    let c = flat.trailing_zeros() as usize;
+    let area = k.orient2d(c, t);
+    o.map(|p| area * k.cmp(c, t[0], p) as i8)
 }
 
 /// The decision once neither triangle is strictly on one side of the
@@ -277,6 +314,9 @@ fn segment_triangle<K: Orientation>(
         return false;
     }
     if op == 0 && oq == 0 {
+        if beyond_an_edge_2d(k, axis, t, &[p, q]) {
+            return false;
+        }
         return point_in_triangle_2d(k, axis, p, t)
             || (0..3).any(|i| segments_intersect_2d(k, axis, [p, q], [t[i], t[(i + 1) % 3]]));
     }
@@ -298,12 +338,34 @@ fn triangles_intersect_2d<K: Orientation>(
     a: [usize; 3],
     b: [usize; 3],
 ) -> bool {
+    if beyond_an_edge_2d(k, axis, a, &b) || beyond_an_edge_2d(k, axis, b, &a) {
+        return false;
+    }
     edges(a).iter().any(|&ea| {
         edges(b)
             .iter()
             .any(|&eb| segments_intersect_2d(k, axis, ea, eb))
     }) || point_in_triangle_2d(k, axis, a[0], b)
         || point_in_triangle_2d(k, axis, b[0], a)
+}
+
+/// Do points `o` lie strictly beyond one edge of triangle `t` (all
+/// projected along `axis`), on the side of its line away from `t`? Then
+/// they, and their convex hull, miss the closed triangle: it lies in the
+/// closed half-plane on the other side. A cheap refusal before the
+/// edge-by-edge tests, which must all run to show that coplanar elements
+/// are apart; two closed triangles apart in a plane, or a segment apart
+/// from one, are most often separated so (at most 10 signs each way,
+/// against 42 for every edge pair and both corners). False for a
+/// degenerate `t` (no inside to be away from).
+fn beyond_an_edge_2d<K: Orientation>(k: &K, axis: usize, t: [usize; 3], o: &[usize]) -> bool {
+    // The sign of each edge's third corner: the triangle's orientation
+    // (a cyclic shift of its corners keeps it).
+    let inside = k.orient2d(axis, t);
+    inside != 0
+        && edges(t)
+            .iter()
+            .any(|&[p, q]| o.iter().all(|&r| k.orient2d(axis, [p, q, r]) == -inside))
 }
 
 /// Closed 3D segments [p1, p2] and [q1, q2] share a point (zero-length segments allowed).
@@ -491,6 +553,34 @@ mod tests {
             meet > total / 10 && meet < total * 9 / 10,
             "{meet} of {total}"
         );
+    }
+
+    /// The plane sides of a triangle in an axis plane, taken by
+    /// comparisons and one orientation in the plane, are the orientations'
+    /// own signs: small-integer corners (collapsed triangles, points on the
+    /// plane), each axis, and scaled to the extremes.
+    #[test]
+    fn plane_sides_in_an_axis_plane_are_the_orientations() {
+        let mut rng = crate::scene::SplitMix::new(41);
+        let mut grid = || (rng.next_u64() % 5) as f64 - 2.0;
+        let mut zeros = 0;
+        for n in 0..30_000 {
+            let axis = n % 3;
+            let mut p: [DVec3; 6] = std::array::from_fn(|_| v(grid(), grid(), grid()));
+            for q in &mut p[..3] {
+                q[axis] = 1.0;
+            }
+            for scale in [1.0, 2f64.powi(-1000), 2f64.powi(1000)] {
+                let q = p.map(|x| x * scale);
+                let kx = Expansion::new(q).unwrap();
+                let want = B.map(|q| kx.orient3d([A[0], A[1], A[2], q]));
+                let flat = flat_axes(&[q[0], q[1], q[2]]);
+                assert_ne!(flat, 0);
+                assert_eq!(flat_plane_sides(&kx, A, flat, B), want, "{p:?} axis {axis}");
+                zeros += want.iter().filter(|&&x| x == 0).count();
+            }
+        }
+        assert!(zeros > 10_000, "{zeros}");
     }
 
     /// The plane clearance never exceeds the distance between the
