@@ -784,14 +784,19 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     /// centres are lowest along `axis` (ties by id); returns the middle.
     fn split_at_median(&self, range: Range<u32>, axis: usize) -> u32 {
         let boxes = self.boxes();
-        let mut tris: Vec<u32> = range.clone().map(|i| self.tri(i)).collect();
-        let key = |t: &u32| {
-            let b = &boxes[*t as usize];
-            (b.min[axis] + b.max[axis], *t)
-        };
-        let half = tris.len() / 2;
-        tris.select_nth_unstable_by(half, |p, q| key(p).partial_cmp(&key(q)).unwrap());
-        for (i, t) in range.clone().zip(tris) {
+        // The keys read once each (the selection compares each element a
+        // few times, and each read of a box through the permutation misses).
+        let mut keyed: Vec<(f64, u32)> = range
+            .clone()
+            .map(|i| {
+                let t = self.tri(i);
+                let b = &boxes[t as usize];
+                (b.min[axis] + b.max[axis], t)
+            })
+            .collect();
+        let half = keyed.len() / 2;
+        keyed.select_nth_unstable_by(half, |p, q| p.partial_cmp(q).unwrap());
+        for (i, (_, t)) in range.clone().zip(keyed) {
             self.place(i, t);
         }
         range.start + half as u32
