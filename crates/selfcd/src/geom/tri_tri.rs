@@ -106,7 +106,13 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
 
 /// Bit c set when triangle `t` lies in a plane normal to axis c (its
 /// corners share coordinate c exactly; both arithmetics take coordinates
-/// exactly, so they compare alike).
+/// exactly, so they compare alike). [`on_axis_plane`]'s test, as a mask
+/// of one triangle read from its coordinates: the pair test reads each
+/// triangle's once and uses it twice (the coplanar check and its plane
+/// sides); the versions that asked through the arithmetic cost the
+/// garments' and the crumpled grid's exact tests 0.3-0.9% more
+/// instructions than before (BENCHMARKS.md, thirty-second landing), this
+/// one 0.1%.
 #[inline]
 fn flat_axes(t: &[DVec3; 3]) -> u32 {
     (t[0].cmpeq(t[1]) & t[0].cmpeq(t[2])).bitmask()
@@ -573,7 +579,7 @@ mod tests {
             for scale in [1.0, 2f64.powi(-1000), 2f64.powi(1000)] {
                 let q = p.map(|x| x * scale);
                 let kx = Expansion::new(q).unwrap();
-                let want = B.map(|q| kx.orient3d([A[0], A[1], A[2], q]));
+                let want = B.map(|j| kx.orient3d([A[0], A[1], A[2], j]));
                 let flat = flat_axes(&[q[0], q[1], q[2]]);
                 assert_ne!(flat, 0);
                 assert_eq!(flat_plane_sides(&kx, A, flat, B), want, "{p:?} axis {axis}");
