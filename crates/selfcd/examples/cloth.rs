@@ -102,11 +102,12 @@ fn run() -> Result<(), String> {
         if trace {
             let d = &st.detection;
             println!(
-                "step {k} ms: proximity {:.2} continuous {:.2} ({} rounds) solve {:.2} response {:.2}; contacts {}, one-shot answers {}, set queries {}, set builds {}, node pairs {}, leaf pairs {}",
+                "step {k} ms: proximity {:.2} continuous {:.2} ({} rounds) solve {:.2} ({} iterations) response {:.2}; contacts {}, one-shot answers {}, set queries {}, set builds {}, node pairs {}, leaf pairs {}",
                 st.proximity_time * 1e3,
                 st.continuous_time * 1e3,
                 st.ccd_rounds,
                 st.solve_time * 1e3,
+                st.iterations,
                 st.response_time * 1e3,
                 st.contacts,
                 d.proximity_one_shots,
