@@ -362,12 +362,12 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
     let (a, b) = (a as usize, b as usize);
     let (oa, ob) = (topo.owned[a], topo.owned[b]);
     for (x, y, owned) in [(a, b, oa), (b, a, ob)] {
-        for k in (0..3).filter(|k| owned & (1 << k) != 0) {
+        for k in bits(owned) {
             f(ElementPair::VertexTriangle(tris[x][k], y as u32));
         }
     }
-    for ka in (0..3).filter(|k| oa & (8 << k) != 0) {
-        for kb in (0..3).filter(|k| ob & (8 << k) != 0) {
+    for ka in bits(oa >> 3) {
+        for kb in bits(ob >> 3) {
             f(ElementPair::EdgeEdge(
                 topo.tri_edges[a][ka],
                 topo.tri_edges[b][kb],
@@ -408,10 +408,10 @@ pub fn for_each_owned_near(
         return;
     }
     let (ea, eb) = (&topo.tri_edges[a as usize], &topo.tri_edges[b as usize]);
-    for ka in (0..3).filter(|k| oa & (8 << k) != 0) {
+    for ka in bits(oa >> 3) {
         let (va, xa) = edge_of(ta, &pa, ka);
         let hull = Aabb::from_points(&xa);
-        for kb in (0..3).filter(|k| ob & (8 << k) != 0) {
+        for kb in bits(ob >> 3) {
             let (vb, xb) = edge_of(tb, &pb, kb);
             let shared = va[0] == vb[0] || va[0] == vb[1] || va[1] == vb[0] || va[1] == vb[1];
             if shared || hulls.boxes_apart(&hull, &Aabb::from_points(&xb)) {
@@ -441,7 +441,7 @@ fn owned_vertices_near(
         return;
     }
     let hull = Aabb::from_points(pt);
-    for k in (0..3).filter(|k| owned & (1 << k) != 0) {
+    for k in bits(owned) {
         if !tt.contains(&tv[k]) && !hulls.boxes_apart(&Aabb::from_points(&[pv[k]]), &hull) {
             let c = [pv[k], pt[0], pt[1], pt[2]];
             f(
@@ -451,6 +451,19 @@ fn owned_vertices_near(
             );
         }
     }
+}
+
+/// The indices k < 3 of the set bits of `mask & 7`, in increasing order.
+#[inline(always)]
+fn bits(mask: u8) -> impl Iterator<Item = usize> {
+    let mut m = mask & 7;
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            k
+        })
+    })
 }
 
 /// Edge `k` (corners k, k + 1) of a triangle with corners `p`, as the
