@@ -98,7 +98,7 @@ impl Detector for BruteDetector {
         if self.thickness > 0.0 {
             let near = Proximity::new(mesh, positions, self.thickness, self.max_contacts);
             let (items, tested, _) = all_pairs(mesh, positions, self.thickness, &near);
-            near.check_output()?;
+            near.check_output(items.len())?;
             det.proximity = collect_proximity(items);
             det.stats.proximity_tests = tested;
         }

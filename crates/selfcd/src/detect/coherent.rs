@@ -92,7 +92,8 @@
 
 use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
-    check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, sorted_by_key,
+    check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, guard_add,
+    sorted_by_key,
     ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
@@ -563,9 +564,7 @@ impl LeafVisitor for Gather<'_> {
         for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
             out.extend(self.hulls.closest_within(kind, &c).map(|(d, _)| (d, p)))
         });
-        if out.len() > before {
-            self.found.fetch_add(out.len() - before, Ordering::Relaxed);
-        }
+        guard_add(&self.found, before, out.len());
     }
 }
 

@@ -318,7 +318,7 @@ impl BvhDetector {
                 gap: self.thickness,
             };
             let (parts, c) = self_traverse_parts(&self.bvh, mesh, positions, opts, &near);
-            near.check_output()?;
+            near.check_output(parts.iter().map(Vec::len).sum())?;
             det.proximity = collect_proximity_parts(parts);
             if let Some(map) = &self.triangle_of {
                 det.proximity.map_triangles(map);

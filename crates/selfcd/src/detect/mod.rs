@@ -230,6 +230,6 @@ pub fn proximity_contacts(
     let near = narrow::Proximity::new(mesh, positions, thickness, max_contacts);
     let shape = crate::bvh::topdown::Shape::At(positions);
     let (parts, counters) = crate::bvh::topdown::query_parts(mesh, shape, thickness, &near);
-    near.check_output()?;
+    near.check_output(parts.iter().map(Vec::len).sum())?;
     Ok((narrow::collect_proximity_parts(parts), counters))
 }
