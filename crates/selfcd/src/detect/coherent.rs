@@ -93,8 +93,8 @@
 use super::continuous::{candidate_toi, check_args, element_toi, stay_apart, Impact, Impacts};
 use super::narrow::{
     check_thickness, collect_proximity, for_each_owned_near, for_each_owned_pair, guard_add,
-    sorted_by_key,
-    ElementPair, Intersect, Near, Proximity, ProximityContacts, DEFAULT_MAX_CONTACTS,
+    sorted_by_key, ElementPair, Intersect, Near, Proximity, ProximityContacts,
+    DEFAULT_MAX_CONTACTS,
 };
 use crate::bvh::certify::Cull;
 use crate::bvh::traverse::{self_traverse, traverse, LeafVisitor, TraverseOptions};
