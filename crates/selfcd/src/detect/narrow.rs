@@ -215,8 +215,9 @@ pub struct Proximity<'a> {
     hulls: HullCull,
     /// Most contacts collected; past it, visits stop and [`Proximity::check_output`] fails.
     pub max_contacts: usize,
-    /// Contacts collected so far over all threads, counted in whole
-    /// [`GUARD_BLOCK`]s ([`guard_add`]): at most the true count.
+    /// Contacts collected so far over all threads, counted in whole blocks
+    /// of 256 as each task's output crosses them: at most the true count
+    /// (the final check counts the output itself).
     pub found: AtomicUsize,
 }
 
