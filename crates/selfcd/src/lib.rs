@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bench;
+pub(crate) mod bits;
 pub mod bvh;
 pub mod cloth;
 pub mod detect;

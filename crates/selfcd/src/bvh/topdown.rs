@@ -1158,11 +1158,9 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             f.counters.adjacent_skips += adjacent.count_ones() as u64;
             near &= !adjacent;
         }
-        while near != 0 {
-            let k = near.trailing_zeros();
-            let q = &qs[ids[k as usize] as usize];
+        for k in crate::bits::set_bits(near) {
+            let q = &qs[ids[k] as usize];
             self.test(p, q, adjacent >> k & 1 != 0, f);
-            near &= near - 1;
         }
     }
 

@@ -757,13 +757,12 @@ impl<C: Cull, V: LeafVisitor> Ctx<'_, C, V> {
     fn leaf_row(&self, x: u32, ys: &[u32], acc: &mut Acc<V::Item, C::Scratch>) {
         let boxes = &self.bvh.boxes;
         let bx = &boxes[x as usize];
-        let mut near = ys.iter().enumerate().fold(0u32, |m, (k, &y)| {
+        let near = ys.iter().enumerate().fold(0u32, |m, (k, &y)| {
             m | (bx.within(&boxes[y as usize], self.gap) as u32) << k
         });
         acc.counters.node_pairs += ys.len() as u64;
-        while near != 0 {
-            let y = ys[near.trailing_zeros() as usize];
-            near &= near - 1;
+        for k in crate::bits::set_bits(u64::from(near)) {
+            let y = ys[k];
             if self.slabs_apart(x, y) {
                 acc.counters.slab_culls += 1;
             } else {

@@ -473,17 +473,11 @@ fn owned_vertices_near(
     }
 }
 
-/// The indices k < 3 of the set bits of `mask & 7`, in increasing order.
+/// The indices k < 3 of the set bits of `mask & 7` (a triangle's owned
+/// vertices, or its edges after a shift by 3), in increasing order.
 #[inline(always)]
 fn bits(mask: u8) -> impl Iterator<Item = usize> {
-    let mut m = mask & 7;
-    std::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            k
-        })
-    })
+    crate::bits::set_bits(u64::from(mask & 7))
 }
 
 /// Edge `k` (corners k, k + 1) of a triangle with corners `p`, as the
