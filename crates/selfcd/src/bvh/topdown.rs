@@ -24,8 +24,9 @@
 //!
 //! ```text
 //! self(N)    = nothing if N's certificate holds (tried from CERT_MIN
-//!              triangles when static); the pairs of a leaf (at most LEAF
-//!              triangles);
+//!              triangles when static, at every node when swept); the
+//!              pairs of a leaf (at most LEAF triangles, SWEPT_LEAF when
+//!              swept at thickness 0);
 //!              else self(left), self(right), pair(left, right)
 //! pair(A, B) = nothing if the boxes are apart or the union's certificate
 //!              holds (A and B certified and adjacent); the pairs of two leaves;
@@ -98,7 +99,8 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::OnceLock;
 
 /// Nodes of at most this many triangles are tested pair by pair (at most
-/// 64: [`Query::test_near`]'s masks). With the leaf tests free of branches,
+/// 64: [`Query::test_near`]'s masks; a swept query's leaves are smaller,
+/// [`SWEPT_LEAF`]). With the leaf tests free of branches,
 /// 32 beat 16 on every input but the folded grid (+2-3%; BENCHMARKS.md,
 /// seventeenth landing); 48 cost the folded grid 5-8% more for no further
 /// gain elsewhere.
@@ -115,6 +117,18 @@ const LEAF: usize = 32;
 /// whole step, so a small node's certificate saves more (with this limit
 /// the 20k folded grid's continuous one-shot was 15-22% slower).
 const CERT_MIN: usize = 2 * LEAF;
+/// A swept query's nodes (at thickness 0, where it certifies) of at most
+/// this many triangles are tested pair by pair, after their certificate
+/// (tried at every size). Where a sheet
+/// folds sharply, a leaf holding the crease fails its certificate while
+/// those beside it hold theirs, and each pair of triangles sharing a
+/// vertex costs a [`fans_stay_apart`](crate::geom::ccd::fans_stay_apart)
+/// test: on the folded 200k grid's continuous one-shot (BENCHMARKS.md,
+/// thirty-fourth landing), leaves of [`LEAF`] that try no certificate
+/// handed the visitor 975k triangle pairs; trying it cut them to 689k
+/// and the query's instructions by 13%; leaves of 16 to 564k and 18%
+/// (8: 538k and 18.7%, so no smaller).
+const SWEPT_LEAF: usize = 16;
 /// 0, 1, ..., 63: the places in a leaf.
 const IDS: [u8; 64] = {
     let mut ids = [0u8; 64];
@@ -598,10 +612,18 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// Every intersecting pair within `node`, into `f`.
     fn self_test(&self, node: &mut Node, f: &mut Found<V::Item>) {
-        if node.len() <= LEAF {
+        let swept = matches!(self.shape, Shape::Swept(..));
+        // (A static leaf's certificate would save too little; a swept
+        // query above thickness 0 certifies nothing.)
+        let certified_leaves = swept && self.gap == 0.0;
+        if node.len() <= if certified_leaves { SWEPT_LEAF } else { LEAF } {
+            if certified_leaves && matches!(self.self_certified(node, f), SelfCert::Held) {
+                f.counters.self_culls += 1;
+                return;
+            }
             return self.leaf_self(node, f);
         }
-        let tried = matches!(self.shape, Shape::Swept(..)) || node.len() >= CERT_MIN;
+        let tried = swept || node.len() >= CERT_MIN;
         let cert = if tried {
             self.self_certified(node, f)
         } else {
