@@ -325,6 +325,10 @@ struct Node {
     normals: Option<(DVec3, f64)>,
     kids: Option<Box<[Node; 2]>>,
     cert: Option<Cert>,
+    /// Below a node whose certificate held: never self-tested (only pair
+    /// tests descend here, and a union certificate needs both nodes'
+    /// own), so its fit sums no normals.
+    below_cert: bool,
     /// A leaf's triangles as its pair tests read them, gathered once on first
     /// use ([`Query::leaf_tris`]; a leaf meets a dozen others, and each gather
     /// from the mesh's arrays is a cache miss per triangle). Empty until then.
@@ -356,6 +360,7 @@ impl Node {
             normals: fit.normals,
             kids: None,
             cert: None,
+            below_cert: false,
             tris: Box::default(),
         }
     }
@@ -575,9 +580,16 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// The node of the triangles at positions `range`, fitted.
     fn node(&self, range: Range<u32>) -> Node {
+        self.node_fit(range, true)
+    }
+
+    /// [`node`](Self::node), its normals summed only when `normals`
+    /// (without, its certificate is refused: see [`Node::below_cert`]).
+    fn node_fit(&self, range: Range<u32>, normals: bool) -> Node {
         let boxes = self.boxes();
         // Each triangle's normals as one: the sum of its own, or itself.
         let sums = match self.normals_per_triangle() {
+            _ if !normals => &[][..],
             0 => &[][..],
             1 => &self.normals[..],
             _ => &self.normal_sums[..],
@@ -734,10 +746,15 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn kids<'n>(&self, node: &'n mut Node, buf: &mut Vec<u32>) -> &'n mut [Node; 2] {
         if node.kids.is_none() {
             let mid = self.partition(node, buf);
-            node.kids = Some(Box::new([
-                self.node(node.range.start..mid),
-                self.node(mid..node.range.end),
-            ]));
+            let below = node.cert.is_some() || node.below_cert;
+            let mut kids = [
+                self.node_fit(node.range.start..mid, !below),
+                self.node_fit(mid..node.range.end, !below),
+            ];
+            for k in &mut kids {
+                k.below_cert = below;
+            }
+            node.kids = Some(Box::new(kids));
         }
         node.kids.as_mut().unwrap()
     }
