@@ -580,16 +580,17 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
 
     /// The node of the triangles at positions `range`, fitted.
     fn node(&self, range: Range<u32>) -> Node {
-        self.node_fit(range, true)
+        self.node_fit(range, false)
     }
 
-    /// [`node`](Self::node), its normals summed only when `normals`
-    /// (without, its certificate is refused: see [`Node::below_cert`]).
-    fn node_fit(&self, range: Range<u32>, normals: bool) -> Node {
+    /// [`node`](Self::node), [`below_cert`](Node::below_cert) when
+    /// `below_cert`: then its fit sums no normals (its certificate would
+    /// be refused, and none is tried).
+    fn node_fit(&self, range: Range<u32>, below_cert: bool) -> Node {
         let boxes = self.boxes();
         // Each triangle's normals as one: the sum of its own, or itself.
         let sums = match self.normals_per_triangle() {
-            _ if !normals => &[][..],
+            _ if below_cert => &[][..],
             0 => &[][..],
             1 => &self.normals[..],
             _ => &self.normal_sums[..],
@@ -599,7 +600,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             // (No normals where nothing is certified.)
             fit.add(&boxes[t], sums.get(t..t + 1).unwrap_or_default())
         });
-        Node::new(range, fit)
+        Node {
+            below_cert,
+            ..Node::new(range, fit)
+        }
     }
 
     /// Leaf `node`'s triangles, gathered on first use.
@@ -626,8 +630,8 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn self_test(&self, node: &mut Node, f: &mut Found<V::Item>) {
         let swept = matches!(self.shape, Shape::Swept(..));
         // (A static leaf's certificate would save too little; a swept
-        // query above thickness 0 certifies nothing.)
-        let certified_leaves = swept && self.gap == 0.0;
+        // query above thickness 0 reads no normals: it certifies nothing.)
+        let certified_leaves = swept && self.normals_per_triangle() > 0;
         if node.len() <= if certified_leaves { SWEPT_LEAF } else { LEAF } {
             if certified_leaves && matches!(self.self_certified(node, f), SelfCert::Held) {
                 f.counters.self_culls += 1;
@@ -747,14 +751,10 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         if node.kids.is_none() {
             let mid = self.partition(node, buf);
             let below = node.cert.is_some() || node.below_cert;
-            let mut kids = [
-                self.node_fit(node.range.start..mid, !below),
-                self.node_fit(mid..node.range.end, !below),
-            ];
-            for k in &mut kids {
-                k.below_cert = below;
-            }
-            node.kids = Some(Box::new(kids));
+            node.kids = Some(Box::new([
+                self.node_fit(node.range.start..mid, below),
+                self.node_fit(mid..node.range.end, below),
+            ]));
         }
         node.kids.as_mut().unwrap()
     }
