@@ -125,24 +125,20 @@ const PAR_ITEMS: usize = 16_384;
 
 /// `row(item)` of every item as a new (len, K) array. Long ones are filled
 /// in parallel without the GIL (a proximity query can return millions of
-/// contacts), into memory the array then owns (no copy).
-pub fn rows_array<'py, S: Sync, T: Element + Copy + Default + Send + Sync, const K: usize>(
+/// contacts), into memory the array then owns: each entry written once (no
+/// zeroing first, no copy).
+pub fn rows_array<'py, S: Sync, T: Element + Copy + Send + Sync, const K: usize>(
     py: Python<'py>,
     items: &[S],
     row: impl Fn(&S) -> [T; K] + Sync + Send,
 ) -> PyResult<Bound<'py, PyAny>> {
     const { assert!(K > 0, "rows have entries") };
-    let flat = if items.len() < PAR_ITEMS {
-        items.iter().flat_map(&row).collect()
+    let rows: Vec<[T; K]> = if items.len() < PAR_ITEMS {
+        items.iter().map(&row).collect()
     } else {
-        py.detach(|| {
-            let mut flat = vec![T::default(); items.len() * K];
-            let rows = flat.par_chunks_mut(K).zip(items.par_iter());
-            rows.for_each(|(out, x)| out.copy_from_slice(&row(x)));
-            flat
-        })
+        py.detach(|| items.par_iter().map(&row).collect())
     };
-    Ok(PyArray1::from_vec(py, flat)
+    Ok(PyArray1::from_vec(py, rows.into_flattened())
         .reshape([items.len(), K])?
         .into_any())
 }
