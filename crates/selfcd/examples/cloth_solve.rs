@@ -17,6 +17,12 @@
 //! in the simulator's step. Each solve's error is given in
 //! the energy norm, `|dv - dv*|_A / |dv*|_A`, against a multigrid solve to
 //! 1e-10; `TOL=...` sets the tolerance of the timed solves (default 1e-3).
+//!
+//! `DUMP=FILE` also writes the system for outside study
+//! (`scripts/solve_amg.py` reads it), as little-endian f64s: the rows n and
+//! links m; each row's diagonal block (9, row-major); each link's two rows
+//! and block (2 + 9); b, the warm start and the positions (3 per row); and
+//! 1 for each pinned row, else 0.
 
 use glam::DVec3;
 use selfcd::cloth::multigrid::Multigrid;
@@ -111,6 +117,9 @@ fn run() -> Result<(), String> {
         e.iter().zip(&ae).map(|(x, y)| x.dot(*y)).sum::<f64>()
     };
     let norm = energy(&exact).sqrt();
+    if let Ok(path) = std::env::var("DUMP") {
+        dump(&path, &system, &start, sim.positions(), cloth.pinned())?;
+    }
     let tolerance: f64 = std::env::var("TOL")
         .ok()
         .and_then(|x| x.parse().ok())
@@ -153,4 +162,29 @@ fn run() -> Result<(), String> {
         update * 1e3
     );
     Ok(())
+}
+
+/// Writes the system to `path` in the module doc's layout.
+fn dump(
+    path: &str,
+    system: &System,
+    start: &[DVec3],
+    x: &[DVec3],
+    pinned: &[bool],
+) -> Result<(), String> {
+    let a = &system.a;
+    let mut out = vec![a.rows() as f64, a.ends().len() as f64];
+    for d in &a.diag {
+        out.extend(d.transpose().to_cols_array());
+    }
+    for (e, l) in a.ends().iter().zip(&a.link) {
+        out.extend([f64::from(e[0]), f64::from(e[1])]);
+        out.extend(l.mat().transpose().to_cols_array());
+    }
+    for v in system.b.iter().chain(start).chain(x) {
+        out.extend(v.to_array());
+    }
+    out.extend(pinned.iter().map(|&p| f64::from(u8::from(p))));
+    let bytes: Vec<u8> = out.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(path, bytes).map_err(|e| format!("cannot write {path}: {e}"))
 }
