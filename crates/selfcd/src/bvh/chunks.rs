@@ -132,7 +132,9 @@ mod tests {
         let first = task(0, 3 * PART).into_chunks();
         let lens: Vec<usize> = first.iter().map(Vec::len).collect();
         assert_eq!(lens[0], FIRST);
-        assert!(lens.windows(2).all(|w| w[1] == (2 * w[0]).min(PART) || w[1] < w[0]));
+        assert!(lens
+            .windows(2)
+            .all(|w| w[1] == (2 * w[0]).min(PART) || w[1] < w[0]));
         // Each list set aside was full to its room: no room wasted, none copied.
         let set_aside = &first[..first.len() - 1];
         assert!(set_aside.iter().all(|c| c.capacity() <= c.len() + ROOM));
