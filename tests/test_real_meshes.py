@@ -136,3 +136,15 @@ def test_one_shot_proximity_is_the_detectors_on_real_meshes(name, meshes):
     assert len(got["vertex_triangle"]) > 1000 and len(got["edge_edge"]) > 1000
     for key in want:
         assert np.array_equal(got[key], want[key]), key
+    # The arrays' rows line up (both sides above are converted alike, and
+    # these answers are long enough to be filled in parallel): each edge
+    # pair's vertices are its edges', and each vertex-triangle distance is
+    # that of the vertex to its closest point, rebuilt from the weights.
+    edges = np.asarray(mesh.edges)
+    ee, vt = got["edge_edge"], got["vertex_triangle"]
+    assert got["edge_edge_vertices"].shape == (len(ee), 4)
+    assert np.array_equal(got["edge_edge_vertices"], edges[ee].reshape(-1, 4))
+    closest = np.einsum("ij,ijk->ik", got["vertex_triangle_bary"], v[f[vt[:, 1]]])
+    dist = np.linalg.norm(v[vt[:, 0]] - closest, axis=1)
+    assert np.allclose(dist, got["vertex_triangle_distance"], rtol=1e-9, atol=1e-12 * d)
+    assert (got["vertex_triangle_distance"] < d).all() and (got["edge_edge_distance"] < d).all()
