@@ -562,7 +562,7 @@ impl LeafVisitor for Gather<'_> {
         }
         let before = out.len();
         for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
-            out.extend(self.hulls.closest_within(kind, &c).map(|(d, _)| (d, p)))
+            out.extend(self.hulls.closest_within(kind, c).map(|(d, _)| (d, p)))
         });
         guard_add(&self.found, before, out.len());
     }

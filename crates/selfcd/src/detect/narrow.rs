@@ -351,10 +351,13 @@ impl LeafVisitor for Proximity<'_> {
         let before = out.len();
         let x = self.positions;
         for_each_owned_near(self.mesh, x, &self.hulls, a, b, |pair, _, c| {
-            out.extend(match pair {
-                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, &c),
-                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, &c),
-            })
+            let near = match pair {
+                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, c),
+                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, c),
+            };
+            if let Some(near) = near {
+                out.push(near);
+            }
         });
         guard_add(&self.found, before, out.len());
     }
@@ -408,7 +411,7 @@ pub fn for_each_owned_near(
     hulls: &HullCull,
     a: u32,
     b: u32,
-    mut f: impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
+    mut f: impl FnMut(ElementPair, StencilKind, &[DVec3; 4]),
 ) {
     let topo = mesh.topology();
     let (oa, ob) = (topo.owned[a as usize], topo.owned[b as usize]);
@@ -443,7 +446,7 @@ pub fn for_each_owned_near(
             } else {
                 (ElementPair::EdgeEdge(e1, e0), [xb[0], xb[1], xa[0], xa[1]])
             };
-            f(pair, StencilKind::EdgeEdge, c);
+            f(pair, StencilKind::EdgeEdge, &c);
         }
     }
 }
@@ -455,7 +458,7 @@ fn owned_vertices_near(
     hulls: &HullCull,
     (tv, pv, owned): (&[u32; 3], &[DVec3; 3], u8),
     (tt, pt, t): (&[u32; 3], &[DVec3; 3], u32),
-    f: &mut impl FnMut(ElementPair, StencilKind, [DVec3; 4]),
+    f: &mut impl FnMut(ElementPair, StencilKind, &[DVec3; 4]),
 ) {
     if owned & 7 == 0 {
         return;
@@ -467,7 +470,7 @@ fn owned_vertices_near(
             f(
                 ElementPair::VertexTriangle(tv[k], t),
                 StencilKind::VertexTriangle,
-                c,
+                &c,
             );
         }
     }
@@ -653,7 +656,7 @@ mod tests {
                     });
                     let mut fast = Vec::new();
                     for_each_owned_near(&mesh, &x, &hulls, a, b, |p, kind, c| {
-                        fast.push((p, kind, c))
+                        fast.push((p, kind, *c))
                     });
                     kept += slow.len();
                     assert_eq!(fast, slow, "triangles {a} and {b}, gap {gap}");
