@@ -561,7 +561,7 @@ impl LeafVisitor for Gather<'_> {
             return; // the output guard: the build fails afterwards
         }
         let before = out.len();
-        for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c| {
+        for_each_owned_near(self.mesh, self.x, &self.hulls, a, b, |p, kind, c: &_| {
             out.extend(self.hulls.closest_within(kind, c).map(|(d, _)| (d, p)))
         });
         guard_add(&self.found, before, out.len());

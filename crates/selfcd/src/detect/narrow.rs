@@ -349,17 +349,32 @@ impl LeafVisitor for Proximity<'_> {
             return; // the output guard: the query fails in check_output
         }
         let before = out.len();
-        let x = self.positions;
-        for_each_owned_near(self.mesh, x, &self.hulls, a, b, |pair, _, c| {
-            let near = match pair {
-                ElementPair::VertexTriangle(v, t) => self.near_vt(v, t, c),
-                ElementPair::EdgeEdge(e0, e1) => self.near_ee(e0, e1, c),
-            };
-            if let Some(near) = near {
-                out.push(near);
-            }
-        });
+        let sink = Collect { near: self, out };
+        for_each_owned_near(self.mesh, self.positions, &self.hulls, a, b, sink);
         guard_add(&self.found, before, out.len());
+    }
+}
+
+/// [`Proximity`]'s sink: each element pair's contact, when closer than the
+/// thickness, onto `out`.
+struct Collect<'p, 'a> {
+    near: &'p Proximity<'a>,
+    out: &'p mut Vec<Near>,
+}
+
+impl NearSink for Collect<'_, '_> {
+    #[inline(always)]
+    fn vertex_triangle(&mut self, v: u32, t: u32, c: &[DVec3; 4]) {
+        if let Some(near) = self.near.near_vt(v, t, c) {
+            self.out.push(near);
+        }
+    }
+
+    #[inline(always)]
+    fn edge_edge(&mut self, e0: u32, e1: u32, c: &[DVec3; 4]) {
+        if let Some(near) = self.near.near_ee(e0, e1, c) {
+            self.out.push(near);
+        }
     }
 }
 
@@ -399,9 +414,36 @@ pub fn for_each_owned_pair(mesh: &Mesh, a: u32, b: u32, mut f: impl FnMut(Elemen
     }
 }
 
+/// Where [`for_each_owned_near`] hands its element pairs, one method per
+/// kind, each with its stencil's corners (in [`ElementPair::stencil`]'s
+/// order). A closure of `(pair, kind, corners)` is one; a visitor on the
+/// hot path implements it with methods inlined at each call site.
+pub trait NearSink {
+    /// Vertex `v` and triangle `t` (corners: the vertex, then the triangle's).
+    fn vertex_triangle(&mut self, v: u32, t: u32, c: &[DVec3; 4]);
+    /// Edges `e0 <= e1` (corners: each edge's smaller vertex first).
+    fn edge_edge(&mut self, e0: u32, e1: u32, c: &[DVec3; 4]);
+}
+
+impl<F: FnMut(ElementPair, StencilKind, &[DVec3; 4])> NearSink for F {
+    #[inline(always)]
+    fn vertex_triangle(&mut self, v: u32, t: u32, c: &[DVec3; 4]) {
+        self(
+            ElementPair::VertexTriangle(v, t),
+            StencilKind::VertexTriangle,
+            c,
+        )
+    }
+
+    #[inline(always)]
+    fn edge_edge(&mut self, e0: u32, e1: u32, c: &[DVec3; 4]) {
+        self(ElementPair::EdgeEdge(e0, e1), StencilKind::EdgeEdge, c)
+    }
+}
+
 /// The owned element pairs of triangles `a` and `b` that share no vertex and
-/// whose hulls at `x` the cull keeps, canonical, each with its stencil's kind
-/// and corners (in [`ElementPair::stencil`]'s order): exactly what
+/// whose hulls at `x` the cull keeps, canonical, handed to `f` by kind with
+/// their stencils' corners (in [`ElementPair::stencil`]'s order): exactly what
 /// [`for_each_owned_pair`] followed by `canonical`, `stencil` and
 /// [`HullCull::apart`] gives, in the same order, with each corner read and
 /// each box fitted once per triangle pair instead of once per element pair.
@@ -411,7 +453,7 @@ pub fn for_each_owned_near(
     hulls: &HullCull,
     a: u32,
     b: u32,
-    mut f: impl FnMut(ElementPair, StencilKind, &[DVec3; 4]),
+    mut f: impl NearSink,
 ) {
     let topo = mesh.topology();
     let (oa, ob) = (topo.owned[a as usize], topo.owned[b as usize]);
@@ -441,12 +483,11 @@ pub fn for_each_owned_near(
                 continue;
             }
             let (e0, e1) = (ea[ka], eb[kb]);
-            let (pair, c) = if e0 <= e1 {
-                (ElementPair::EdgeEdge(e0, e1), [xa[0], xa[1], xb[0], xb[1]])
+            if e0 <= e1 {
+                f.edge_edge(e0, e1, &[xa[0], xa[1], xb[0], xb[1]]);
             } else {
-                (ElementPair::EdgeEdge(e1, e0), [xb[0], xb[1], xa[0], xa[1]])
-            };
-            f(pair, StencilKind::EdgeEdge, &c);
+                f.edge_edge(e1, e0, &[xb[0], xb[1], xa[0], xa[1]]);
+            }
         }
     }
 }
@@ -458,7 +499,7 @@ fn owned_vertices_near(
     hulls: &HullCull,
     (tv, pv, owned): (&[u32; 3], &[DVec3; 3], u8),
     (tt, pt, t): (&[u32; 3], &[DVec3; 3], u32),
-    f: &mut impl FnMut(ElementPair, StencilKind, &[DVec3; 4]),
+    f: &mut impl NearSink,
 ) {
     if owned & 7 == 0 {
         return;
@@ -466,12 +507,7 @@ fn owned_vertices_near(
     let hull = Aabb::from_points(pt);
     for k in bits(owned) {
         if !tt.contains(&tv[k]) && !hulls.boxes_apart(&Aabb::from_points(&[pv[k]]), &hull) {
-            let c = [pv[k], pt[0], pt[1], pt[2]];
-            f(
-                ElementPair::VertexTriangle(tv[k], t),
-                StencilKind::VertexTriangle,
-                &c,
-            );
+            f.vertex_triangle(tv[k], t, &[pv[k], pt[0], pt[1], pt[2]]);
         }
     }
 }
@@ -655,7 +691,7 @@ mod tests {
                         }
                     });
                     let mut fast = Vec::new();
-                    for_each_owned_near(&mesh, &x, &hulls, a, b, |p, kind, c| {
+                    for_each_owned_near(&mesh, &x, &hulls, a, b, |p, kind, c: &_| {
                         fast.push((p, kind, *c))
                     });
                     kept += slow.len();
