@@ -578,14 +578,19 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
         self.order[i as usize].load(Relaxed)
     }
 
-    /// The node of the triangles at positions `range`, fitted.
-    fn node(&self, range: Range<u32>) -> Node {
-        self.node_fit(range, false)
+    /// `node`'s two children, split at position `mid` and fitted; below a
+    /// node whose certificate held, [`below_cert`](Node::below_cert).
+    fn split_at(&self, node: &Node, mid: u32) -> Box<[Node; 2]> {
+        let below = node.cert.is_some() || node.below_cert;
+        Box::new([
+            self.node_fit(node.range.start..mid, below),
+            self.node_fit(mid..node.range.end, below),
+        ])
     }
 
-    /// [`node`](Self::node), [`below_cert`](Node::below_cert) when
-    /// `below_cert`: then its fit sums no normals (its certificate would
-    /// be refused, and none is tried).
+    /// The node of the triangles at positions `range`, fitted;
+    /// [`below_cert`](Node::below_cert) when `below_cert`, and then its fit
+    /// sums no normals (its certificate would be refused, and none is tried).
     fn node_fit(&self, range: Range<u32>, below_cert: bool) -> Node {
         let boxes = self.boxes();
         // Each triangle's normals as one: the sum of its own, or itself.
@@ -652,10 +657,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
             }
             SelfCert::Pieces => {
                 if let Some(mid) = self.split_off_piece(node) {
-                    node.kids = Some(Box::new([
-                        self.node(node.range.start..mid),
-                        self.node(mid..node.range.end),
-                    ]));
+                    node.kids = Some(self.split_at(node, mid));
                 }
             }
             SelfCert::Refused => {}
@@ -750,11 +752,7 @@ impl<'a, V: LeafVisitor> Query<'a, V> {
     fn kids<'n>(&self, node: &'n mut Node, buf: &mut Vec<u32>) -> &'n mut [Node; 2] {
         if node.kids.is_none() {
             let mid = self.partition(node, buf);
-            let below = node.cert.is_some() || node.below_cert;
-            node.kids = Some(Box::new([
-                self.node_fit(node.range.start..mid, below),
-                self.node_fit(mid..node.range.end, below),
-            ]));
+            node.kids = Some(self.split_at(node, mid));
         }
         node.kids.as_mut().unwrap()
     }
